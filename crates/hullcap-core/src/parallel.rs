@@ -1,0 +1,137 @@
+//! Data-parallel loops on `std::thread::scope`.
+//!
+//! Work is split into one contiguous chunk per thread; each thread gets a disjoint
+//! `&mut` slice of the output, so no locks and no unsafe code are needed. Threads are
+//! joined explicitly, and a panic in any of them is returned as [`WorkerPanicked`]
+//! instead of being re-raised.
+
+use std::num::NonZeroUsize;
+use std::thread;
+
+/// A worker thread panicked; the message is the panic's payload when it was a string.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("an engine worker thread panicked: {0}")]
+pub struct WorkerPanicked(pub String);
+
+/// The number of threads to use: `requested` when given and non-zero, otherwise every
+/// core `std::thread::available_parallelism` reports (1 if it cannot tell).
+pub fn resolve_threads(requested: Option<usize>) -> usize {
+    match requested {
+        Some(n) if n > 0 => n,
+        _ => thread::available_parallelism().map_or(1, NonZeroUsize::get),
+    }
+}
+
+/// Calls `f(offset, chunk)` on contiguous chunks of `out` from up to `threads` threads,
+/// where `offset` is the index of `chunk[0]` in `out`.
+///
+/// Chunks are never smaller than `min_chunk` items (so tiny inputs run on the calling
+/// thread, without spawning). Returns an error if a worker panicked; the other chunks are
+/// then complete but the panicking one may be partly written.
+///
+/// ```
+/// let mut squares = vec![0usize; 1000];
+/// hullcap_core::for_each_chunk_mut(&mut squares, 4, 64, |offset, chunk| {
+///     for (i, s) in chunk.iter_mut().enumerate() {
+///         *s = (offset + i) * (offset + i);
+///     }
+/// })
+/// .unwrap();
+/// assert_eq!(squares[999], 999 * 999);
+/// ```
+pub fn for_each_chunk_mut<T, F>(
+    out: &mut [T],
+    threads: usize,
+    min_chunk: usize,
+    f: F,
+) -> Result<(), WorkerPanicked>
+where
+    T: Send,
+    F: Fn(usize, &mut [T]) + Sync,
+{
+    let n = out.len();
+    let max_chunks = n.div_ceil(min_chunk.max(1));
+    let chunks = threads.max(1).min(max_chunks);
+    if chunks <= 1 {
+        return run_caught(|| f(0, out));
+    }
+    let chunk_len = n.div_ceil(chunks);
+    thread::scope(|scope| {
+        let f = &f;
+        let handles: Vec<_> = out
+            .chunks_mut(chunk_len)
+            .enumerate()
+            .map(|(i, chunk)| scope.spawn(move || f(i * chunk_len, chunk)))
+            .collect();
+        // Join every handle before reporting, so no thread outlives the error.
+        let mut first_panic = None;
+        for handle in handles {
+            if let Err(payload) = handle.join() {
+                first_panic.get_or_insert(WorkerPanicked(panic_message(payload.as_ref())));
+            }
+        }
+        first_panic.map_or(Ok(()), Err)
+    })
+}
+
+/// Runs `f` on the calling thread, turning a panic into [`WorkerPanicked`].
+fn run_caught(f: impl FnOnce()) -> Result<(), WorkerPanicked> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))
+        .map_err(|payload| WorkerPanicked(panic_message(payload.as_ref())))
+}
+
+fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_owned()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "(no message)".to_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_item_is_visited_once_with_its_offset() {
+        for n in [0, 1, 7, 64, 65, 1000, 1001] {
+            for threads in [1, 2, 3, 8] {
+                let mut out = vec![usize::MAX; n];
+                for_each_chunk_mut(&mut out, threads, 16, |offset, chunk| {
+                    for (i, x) in chunk.iter_mut().enumerate() {
+                        *x = offset + i;
+                    }
+                })
+                .unwrap();
+                assert!(
+                    out.iter().enumerate().all(|(i, &x)| x == i),
+                    "n={n} t={threads}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_panicking_worker_becomes_an_error() {
+        let mut out = vec![0u8; 10_000];
+        let err = for_each_chunk_mut(&mut out, 4, 1, |offset, _| {
+            if offset > 0 {
+                panic!("boom at {offset}");
+            }
+        })
+        .unwrap_err();
+        assert!(err.0.starts_with("boom at"), "{err}");
+        // Also on the calling thread (a single chunk).
+        let err = for_each_chunk_mut(&mut out, 1, 1, |_, _| panic!("inline")).unwrap_err();
+        assert_eq!(err.0, "inline");
+    }
+
+    #[test]
+    fn zero_requested_threads_means_all_cores() {
+        assert!(resolve_threads(None) >= 1);
+        assert_eq!(resolve_threads(Some(0)), resolve_threads(None));
+        assert_eq!(resolve_threads(Some(3)), 3);
+    }
+}

@@ -1,0 +1,199 @@
+//! The k nearest keys of each query, gated, in parallel batches.
+
+use crate::KdTreeError;
+use crate::build::NormalKdTree;
+use crate::gate::{Gate, PreparedGate};
+use crate::keys::{self, Key, dist2};
+use crate::nearest::{MIN_QUERIES_PER_THREAD, Neighbor};
+
+impl NormalKdTree {
+    /// For each query, its `k` nearest keys, nearest first, as `M × k` rows (row-major).
+    ///
+    /// A neighbour whose pair fails `gate` is [`Neighbor::NONE`], in place (so the row keeps
+    /// its order by distance); so are the slots past the tree's size when `k > len()`.
+    pub fn query_k(
+        &self,
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        k: usize,
+        gate: &Gate,
+        threads: Option<usize>,
+    ) -> Result<Vec<Neighbor>, KdTreeError> {
+        if k == 0 {
+            return Err(KdTreeError::BadParameter {
+                name: "k",
+                requirement: "at least 1",
+                value: 0.0,
+            });
+        }
+        gate.validate()?;
+        let unit = keys::validate(points, normals, ("query points", "query normals"))?;
+        let gate = gate.prepare(self.lambda);
+        let mut out = vec![Neighbor::NONE; points.len() * k];
+        let threads = hullcap_core::resolve_threads(threads);
+        // Chunks of whole rows: chunk over queries, each writing its k slots.
+        let mut rows: Vec<&mut [Neighbor]> = out.chunks_mut(k).collect();
+        hullcap_core::for_each_chunk_mut(
+            &mut rows,
+            threads,
+            MIN_QUERIES_PER_THREAD,
+            |offset, chunk| {
+                let mut heap = KBest::new(k);
+                for (i, row) in chunk.iter_mut().enumerate() {
+                    let q = keys::key(&points[offset + i], &unit[offset + i], self.lambda);
+                    self.k_nearest_key(&q, &gate, &mut heap, row);
+                }
+            },
+        )?;
+        Ok(out)
+    }
+
+    fn k_nearest_key(&self, q: &Key, gate: &PreparedGate, best: &mut KBest, row: &mut [Neighbor]) {
+        best.reset(gate.radius2);
+        self.descend_k(0, q, &mut [0.0; 6], 0.0, best);
+        for (slot, &(d2, pos)) in row.iter_mut().zip(&best.items) {
+            if pos != u32::MAX && gate.passes(q, &self.keys[pos as usize]) {
+                *slot = Neighbor {
+                    index: i64::from(self.order[pos as usize]),
+                    distance: d2.sqrt(),
+                };
+            }
+        }
+    }
+
+    fn descend_k(&self, node: u32, q: &Key, off: &mut [f64; 6], rd: f64, best: &mut KBest) {
+        let nd = self.nodes[node as usize];
+        if nd.is_leaf() {
+            for slot in nd.a..nd.b {
+                let d2 = dist2(q, &self.keys[slot as usize]);
+                if d2 < best.worst() {
+                    best.insert(d2, slot);
+                }
+            }
+            return;
+        }
+        let dim = nd.dim as usize;
+        let diff = q[dim] - nd.split;
+        let (near, far) = if diff <= 0.0 {
+            (nd.a, nd.b)
+        } else {
+            (nd.b, nd.a)
+        };
+        self.descend_k(near, q, off, rd, best);
+        let old = off[dim];
+        let far_rd = rd - old * old + diff * diff;
+        if far_rd < best.worst() {
+            off[dim] = diff;
+            self.descend_k(far, q, off, far_rd, best);
+            off[dim] = old;
+        }
+    }
+}
+
+/// The k best (squared distance, leaf slot) pairs so far, sorted ascending; empty places
+/// hold the search radius and slot `u32::MAX`.
+struct KBest {
+    items: Vec<(f64, u32)>,
+}
+
+impl KBest {
+    fn new(k: usize) -> Self {
+        KBest {
+            items: vec![(f64::INFINITY, u32::MAX); k],
+        }
+    }
+    fn reset(&mut self, radius2: f64) {
+        self.items
+            .iter_mut()
+            .for_each(|it| *it = (radius2, u32::MAX));
+    }
+    #[inline]
+    fn worst(&self) -> f64 {
+        self.items[self.items.len() - 1].0
+    }
+    /// Inserts a pair known to beat the worst, keeping the order.
+    fn insert(&mut self, d2: f64, slot: u32) {
+        let mut i = self.items.len() - 1;
+        while i > 0 && self.items[i - 1].0 > d2 {
+            self.items[i] = self.items[i - 1];
+            i -= 1;
+        }
+        self.items[i] = (d2, slot);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BuildOptions;
+    use crate::testing::{adversarial_clouds, random_cloud};
+
+    /// All distances from a query to every key, sorted, gated like the tree.
+    fn brute_k(tree: &NormalKdTree, p: &[f64; 3], n: &[f64; 3], k: usize, gate: &Gate) -> Vec<f64> {
+        let q = keys::key(p, &keys::unit(n).unwrap(), tree.lambda);
+        let g = gate.prepare(tree.lambda);
+        let mut all: Vec<(f64, bool)> = tree
+            .keys
+            .iter()
+            .map(|t| (dist2(&q, t), g.passes(&q, t)))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0));
+        (0..k)
+            .map(|i| match all.get(i) {
+                Some(&(d2, true)) => d2.sqrt(),
+                _ => f64::INFINITY,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn matches_brute_force_random_and_adversarial() {
+        let (q, qn) = random_cloud(200, 5);
+        let mut clouds = adversarial_clouds();
+        let (p, n) = random_cloud(3000, 6);
+        clouds.push(("random", p, n));
+        for (name, p, n) in clouds {
+            for k in [1, 2, 5, 17] {
+                for gate in [
+                    Gate::default(),
+                    Gate {
+                        max_distance: 0.5,
+                        max_angle: 1.2,
+                    },
+                ] {
+                    let opts = BuildOptions {
+                        normal_weight: None,
+                        leaf_size: 5,
+                    };
+                    let tree = NormalKdTree::build(&p, &n, &opts).unwrap();
+                    let got = tree.query_k(&q, &qn, k, &gate, Some(2)).unwrap();
+                    for (i, row) in got.chunks(k).enumerate() {
+                        let want = brute_k(&tree, &q[i], &qn[i], k, &gate);
+                        let dist: Vec<f64> = row.iter().map(|nb| nb.distance).collect();
+                        assert_eq!(dist, want, "{name}, k {k}, query {i}");
+                        assert!(
+                            row.iter()
+                                .all(|nb| (nb.index < 0) == nb.distance.is_infinite())
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn first_of_k_is_the_nearest() {
+        let (p, n) = random_cloud(2000, 8);
+        let (q, qn) = random_cloud(500, 9);
+        let tree = NormalKdTree::build(&p, &n, &BuildOptions::default()).unwrap();
+        let one = tree.query(&q, &qn, &Gate::default(), None).unwrap();
+        let four = tree.query_k(&q, &qn, 4, &Gate::default(), None).unwrap();
+        for (i, nb) in one.iter().enumerate() {
+            assert_eq!(nb.distance, four[4 * i].distance);
+        }
+        assert!(matches!(
+            tree.query_k(&q, &qn, 0, &Gate::default(), None),
+            Err(KdTreeError::BadParameter { name: "k", .. })
+        ));
+    }
+}

@@ -1,0 +1,306 @@
+//! The exact nearest key of each query, gated, in parallel batches.
+
+use crate::KdTreeError;
+use crate::build::NormalKdTree;
+use crate::gate::{Gate, PreparedGate};
+use crate::keys::{self, Key, dist2};
+
+/// Queries per chunk below which a batch is not worth another thread.
+pub(crate) const MIN_QUERIES_PER_THREAD: usize = 512;
+
+/// The answer for one query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Neighbor {
+    /// The caller's index of the nearest key, or −1 when that pair is gated out (or, for
+    /// k-nearest queries, when the tree has fewer than k points).
+    pub index: i64,
+    /// Euclidean distance between the query's key and that key in the 6-D space
+    /// (√(‖Δp‖² + λ²‖Δn‖²)); +∞ where `index` is −1.
+    pub distance: f64,
+}
+
+impl Neighbor {
+    /// The answer for a query with no admissible neighbour.
+    pub const NONE: Neighbor = Neighbor {
+        index: -1,
+        distance: f64::INFINITY,
+    };
+}
+
+impl NormalKdTree {
+    /// For each query point with its normal (any non-zero length), the nearest key of the
+    /// tree, or [`Neighbor::NONE`] where that nearest pair fails `gate`.
+    ///
+    /// `threads`: `None` = all cores. Errors on mismatched lengths, non-finite values,
+    /// zero normals, or a bad gate.
+    pub fn query(
+        &self,
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        gate: &Gate,
+        threads: Option<usize>,
+    ) -> Result<Vec<Neighbor>, KdTreeError> {
+        gate.validate()?;
+        let unit = keys::validate(points, normals, ("query points", "query normals"))?;
+        let gate = gate.prepare(self.lambda);
+        let mut out = vec![Neighbor::NONE; points.len()];
+        let threads = hullcap_core::resolve_threads(threads);
+        hullcap_core::for_each_chunk_mut(
+            &mut out,
+            threads,
+            MIN_QUERIES_PER_THREAD,
+            |offset, chunk| {
+                for (i, slot) in chunk.iter_mut().enumerate() {
+                    let q = keys::key(&points[offset + i], &unit[offset + i], self.lambda);
+                    *slot = self.nearest_key(&q, &gate);
+                }
+            },
+        )?;
+        Ok(out)
+    }
+
+    /// The nearest key to `q` (already a 6-D key), gated.
+    pub(crate) fn nearest_key(&self, q: &Key, gate: &PreparedGate) -> Neighbor {
+        let mut best = Best {
+            dist2: gate.radius2,
+            slot: u32::MAX,
+        };
+        self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
+        if best.slot == u32::MAX || !gate.passes(q, &self.keys[best.slot as usize]) {
+            return Neighbor::NONE;
+        }
+        Neighbor {
+            index: i64::from(self.order[best.slot as usize]),
+            distance: best.dist2.sqrt(),
+        }
+    }
+
+    /// Depth-first search with incremental distance to the cell (Arya & Mount): `off[d]` is
+    /// the query's offset from the current cell along `d`, `rd` = Σ off², a lower bound on
+    /// the squared distance from `q` to any key in the cell.
+    fn descend(&self, node: u32, q: &Key, off: &mut [f64; 6], rd: f64, best: &mut Best) {
+        let nd = self.nodes[node as usize];
+        if nd.is_leaf() {
+            for slot in nd.a..nd.b {
+                let d2 = dist2(q, &self.keys[slot as usize]);
+                if d2 < best.dist2 {
+                    *best = Best { dist2: d2, slot };
+                }
+            }
+            return;
+        }
+        let dim = nd.dim as usize;
+        let diff = q[dim] - nd.split;
+        let (near, far) = if diff <= 0.0 {
+            (nd.a, nd.b)
+        } else {
+            (nd.b, nd.a)
+        };
+        self.descend(near, q, off, rd, best);
+        let old = off[dim];
+        let far_rd = rd - old * old + diff * diff;
+        if far_rd < best.dist2 {
+            off[dim] = diff;
+            self.descend(far, q, off, far_rd, best);
+            off[dim] = old;
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Best {
+    dist2: f64,
+    /// Position in leaf order; `u32::MAX` = none found yet.
+    slot: u32,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BuildOptions;
+    use crate::testing::{adversarial_clouds, brute_nearest, distance_to, random_cloud};
+    use proptest::prelude::*;
+
+    fn assert_matches_brute(
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        queries: &[[f64; 3]],
+        qn: &[[f64; 3]],
+        gate: &Gate,
+        leaf: usize,
+    ) {
+        let opts = BuildOptions {
+            normal_weight: None,
+            leaf_size: leaf,
+        };
+        let tree = NormalKdTree::build(points, normals, &opts).unwrap();
+        let got = tree.query(queries, qn, gate, Some(3)).unwrap();
+        for (i, g) in got.iter().enumerate() {
+            let want = brute_nearest(&tree, &queries[i], &qn[i], gate);
+            assert_eq!(g.distance, want.distance, "query {i}: {g:?} vs {want:?}");
+            if g.index != want.index {
+                // Only a tie may pick another key, at exactly the same distance.
+                assert_eq!(
+                    distance_to(&tree, &queries[i], &qn[i], g.index),
+                    want.distance
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn matches_brute_force_on_random_clouds() {
+        for (n, seed) in [(1, 1), (2, 2), (13, 3), (500, 4), (5000, 5)] {
+            let (p, pn) = random_cloud(n, seed);
+            let (q, qn) = random_cloud(700, seed + 100);
+            for leaf in [1, 4, 12, 64] {
+                assert_matches_brute(&p, &pn, &q, &qn, &Gate::default(), leaf);
+            }
+        }
+    }
+
+    #[test]
+    fn matches_brute_force_on_adversarial_clouds() {
+        let (q, qn) = random_cloud(300, 77);
+        for (name, p, pn) in adversarial_clouds() {
+            for leaf in [1, 3, 16] {
+                for gate in [
+                    Gate::default(),
+                    Gate {
+                        max_distance: 0.3,
+                        max_angle: 1.0,
+                    },
+                ] {
+                    let opts = BuildOptions {
+                        normal_weight: None,
+                        leaf_size: leaf,
+                    };
+                    let tree = NormalKdTree::build(&p, &pn, &opts).unwrap();
+                    let got = tree.query(&q, &qn, &gate, Some(2)).unwrap();
+                    for (i, g) in got.iter().enumerate() {
+                        let want = brute_nearest(&tree, &q[i], &qn[i], &gate);
+                        assert_eq!(g.distance, want.distance, "{name}, leaf {leaf}, query {i}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn gates_reject_by_distance_and_by_angle() {
+        let p = [[0.0, 0.0, 0.0]];
+        let n = [[0.0, 0.0, 1.0]];
+        let opts = BuildOptions {
+            normal_weight: Some(0.1),
+            leaf_size: 4,
+        };
+        let tree = NormalKdTree::build(&p, &n, &opts).unwrap();
+        let near_gate = Gate {
+            max_distance: 0.5,
+            max_angle: 0.5,
+        };
+        // In space 0.4 away, same normal: passes; 0.6 away: rejected.
+        let hit = tree
+            .query(
+                &[[0.4, 0.0, 0.0], [0.6, 0.0, 0.0]],
+                &[[0.0, 0.0, 1.0]; 2],
+                &near_gate,
+                None,
+            )
+            .unwrap();
+        assert_eq!(hit[0].index, 0);
+        assert!((hit[0].distance - 0.4).abs() < 1e-15);
+        assert_eq!(hit[1], Neighbor::NONE);
+        // Normals 0.4 rad apart pass, 0.6 rad apart do not.
+        let tilt = |a: f64| [a.sin(), 0.0, a.cos()];
+        let hit = tree
+            .query(&[[0.0; 3]; 2], &[tilt(0.4), tilt(0.6)], &near_gate, None)
+            .unwrap();
+        assert_eq!(hit[0].index, 0);
+        assert_eq!(hit[1], Neighbor::NONE);
+        // A pair exactly on the distance gate passes.
+        let hit = tree
+            .query(&[[0.5, 0.0, 0.0]], &[[0.0, 0.0, 1.0]], &near_gate, None)
+            .unwrap();
+        assert_eq!(hit[0].index, 0);
+    }
+
+    #[test]
+    fn a_gated_nearest_is_not_replaced_by_a_farther_key() {
+        // The 6-D nearest (index 0) faces away; index 1 faces the query's way but is farther.
+        let p = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]];
+        let n = [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]];
+        let opts = BuildOptions {
+            normal_weight: Some(0.01),
+            leaf_size: 1,
+        };
+        let tree = NormalKdTree::build(&p, &n, &opts).unwrap();
+        let gate = Gate {
+            max_distance: 2.0,
+            max_angle: 0.1,
+        };
+        let hit = tree
+            .query(&[[0.0; 3]], &[[0.0, 0.0, 1.0]], &gate, None)
+            .unwrap();
+        assert_eq!(hit[0], Neighbor::NONE);
+    }
+
+    #[test]
+    fn bad_queries_are_refused() {
+        let (p, n) = random_cloud(10, 1);
+        let tree = NormalKdTree::build(&p, &n, &BuildOptions::default()).unwrap();
+        let g = Gate::default();
+        assert!(matches!(
+            tree.query(&p, &n[..3], &g, None),
+            Err(KdTreeError::LengthMismatch { .. })
+        ));
+        let bad = Gate {
+            max_distance: -1.0,
+            ..g
+        };
+        assert!(matches!(
+            tree.query(&p, &n, &bad, None),
+            Err(KdTreeError::BadParameter {
+                name: "max_distance",
+                ..
+            })
+        ));
+        let bad = Gate {
+            max_angle: f64::NAN,
+            ..g
+        };
+        assert!(matches!(
+            tree.query(&p, &n, &bad, None),
+            Err(KdTreeError::BadParameter {
+                name: "max_angle",
+                ..
+            })
+        ));
+        assert_eq!(tree.query(&[], &[], &g, None).unwrap(), vec![]);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn any_cloud_any_query_matches_brute_force(
+            n in 1usize..200,
+            seed in 0u64..1000,
+            leaf in 1usize..20,
+            lambda in 0.01f64..3.0,
+            max_distance in prop_oneof![Just(f64::INFINITY), 0.0f64..2.0],
+            max_angle in prop_oneof![Just(std::f64::consts::PI), 0.0f64..3.2],
+        ) {
+            let (p, pn) = random_cloud(n, seed);
+            let (q, qn) = random_cloud(50, seed ^ 0xABCD);
+            let opts = BuildOptions { normal_weight: Some(lambda), leaf_size: leaf };
+            let tree = NormalKdTree::build(&p, &pn, &opts).unwrap();
+            let gate = Gate { max_distance, max_angle };
+            let got = tree.query(&q, &qn, &gate, Some(1)).unwrap();
+            for (i, g) in got.iter().enumerate() {
+                let want = brute_nearest(&tree, &q[i], &qn[i], &gate);
+                prop_assert_eq!(g.distance, want.distance);
+                prop_assert_eq!(g.index < 0, want.index < 0);
+            }
+        }
+    }
+}
