@@ -1,7 +1,7 @@
 # The README's two commands are `make demo` and `make test`; both set everything up.
-#   make demo    build the engine (release) in .venv and run the demo
-#   make test    build the engine, then cargo test + pytest
-#   make bench   benchmarks against SciPy / pykdtree (installs the `bench` extra)
+#   make demo    build the engine (release) into .venv and run the demo
+#   make test    the same set-up, then cargo test + pytest
+#   make bench   every benchmark, with its reference peers (SciPy, pykdtree)
 #   make wheel   a release wheel in dist/
 
 PYTHON ?= python3
@@ -11,22 +11,18 @@ export VIRTUAL_ENV := $(abspath $(VENV))
 
 ENGINE_SOURCES := Cargo.toml pyproject.toml $(wildcard Cargo.lock) \
                   $(shell find crates -name '*.rs' -o -name Cargo.toml)
-EXTRAS ?= test
-comma  := ,
-# One stamp per set of extras, so `make bench` installs its peers even after `make test`.
-ENGINE := $(VENV)/.engine-$(subst $(comma),-,$(EXTRAS))
+ENGINE := $(VENV)/.engine-built
 
-.PHONY: demo test bench wheel engine clean
+.PHONY: demo test bench wheel engine no-rayon clean
 
 demo: $(ENGINE)
 	$(PY) benchmarks/bench_kdtree.py --quick
 
-test: $(ENGINE)
+test: $(ENGINE) no-rayon
 	cargo test
 	$(PY) -m pytest -q
 
-bench:
-	$(MAKE) engine EXTRAS=test,bench
+bench: $(ENGINE)
 	$(PY) benchmarks/bench_kdtree.py
 
 wheel: $(PY)
@@ -34,15 +30,21 @@ wheel: $(PY)
 
 engine: $(ENGINE)
 
+# Threads come from std::thread::scope; rayon must not sneak in through a dependency.
+no-rayon:
+	@if cargo tree --workspace --prefix none | grep -q '^rayon'; then \
+	  echo "rayon is in the dependency tree (cargo tree -i rayon)"; exit 1; fi
+
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip 'maturin>=1.9.4,<2'
 
-# Rebuilt whenever a Rust source or the manifests change; a stale extension next to the
-# Python sources would shadow the new one, so it goes first.
+# Rebuilt whenever a Rust source or a manifest changes. A stale extension next to the
+# Python sources would shadow the new one, so it goes first. The `bench` extra brings the
+# peers the demo and benchmarks compare against.
 $(ENGINE): $(PY) $(ENGINE_SOURCES)
-	rm -f python/hullcap/_engine*.so $(VENV)/.engine-*
-	$(VENV)/bin/maturin develop --release --extras $(EXTRAS)
+	rm -f python/hullcap/_engine*.so
+	$(VENV)/bin/maturin develop --release --extras test,bench
 	touch $@
 
 clean:

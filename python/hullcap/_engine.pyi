@@ -36,7 +36,7 @@ class NormalKDTree:
         points: ArrayLike3,
         normals: ArrayLike3,
         normal_weight: float | None = None,
-        leaf_size: int = 12,
+        leaf_size: int = 16,
     ) -> None: ...
     def query(
         self,

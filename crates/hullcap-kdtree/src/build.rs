@@ -4,7 +4,7 @@ use crate::KdTreeError;
 use crate::keys::{self, Key};
 
 /// Points per leaf bucket unless told otherwise (measured best on the benchmark cloud).
-pub const DEFAULT_LEAF_SIZE: usize = 12;
+pub const DEFAULT_LEAF_SIZE: usize = 16;
 
 /// Marks a leaf in [`Node::dim`].
 const LEAF: u32 = u32::MAX;
@@ -83,7 +83,7 @@ impl NormalKdTree {
                 value: 0.0,
             });
         }
-        let unit_normals = keys::validate(points, normals, ("points", "normals"))?;
+        keys::validate(points, normals, ("points", "normals"))?;
         let lambda = match options.normal_weight {
             None => keys::default_normal_weight(points),
             Some(l) if l.is_finite() && l > 0.0 => l,
@@ -97,7 +97,7 @@ impl NormalKdTree {
         };
         let keys: Vec<Key> = points
             .iter()
-            .zip(&unit_normals)
+            .zip(normals)
             .map(|(p, n)| keys::key(p, n, lambda))
             .collect();
         let mut order: Vec<u32> = (0..points.len() as u32).collect();

@@ -26,13 +26,13 @@ pub fn default_normal_weight(points: &[[f64; 3]]) -> f64 {
     }
 }
 
-/// Checks that `points` and `normals` pair up and are finite, and returns the normals
-/// rescaled to unit length.
+/// Checks that `points` and `normals` pair up, are finite, and that no normal is too short
+/// to normalise; `names` are the arrays' names for the error.
 pub(crate) fn validate(
     points: &[[f64; 3]],
     normals: &[[f64; 3]],
     names: (&'static str, &'static str),
-) -> Result<Vec<[f64; 3]>, KdTreeError> {
+) -> Result<(), KdTreeError> {
     if normals.len() != points.len() {
         return Err(KdTreeError::LengthMismatch {
             array: names.1,
@@ -47,11 +47,10 @@ pub(crate) fn validate(
             row,
         });
     }
-    normals
-        .iter()
-        .enumerate()
-        .map(|(row, n)| unit(n).ok_or_else(|| normal_error(n, names.1, row)))
-        .collect()
+    match normals.iter().position(|n| unit(n).is_none()) {
+        Some(row) => Err(normal_error(&normals[row], names.1, row)),
+        None => Ok(()),
+    }
 }
 
 fn normal_error(n: &[f64; 3], array: &'static str, row: usize) -> KdTreeError {
@@ -69,16 +68,17 @@ pub(crate) fn unit(n: &[f64; 3]) -> Option<[f64; 3]> {
         .then(|| [n[0] / len, n[1] / len, n[2] / len])
 }
 
-/// The key of `point` with unit normal `normal`.
+/// The key of `point` with `normal` rescaled to unit length (checked by [`validate`]).
 #[inline]
 pub(crate) fn key(point: &[f64; 3], normal: &[f64; 3], lambda: f64) -> Key {
+    let n = unit(normal).unwrap_or([0.0; 3]);
     [
         point[0],
         point[1],
         point[2],
-        lambda * normal[0],
-        lambda * normal[1],
-        lambda * normal[2],
+        lambda * n[0],
+        lambda * n[1],
+        lambda * n[2],
     ]
 }
 
@@ -140,7 +140,10 @@ mod tests {
                 ..
             })
         ));
-        let unitised = validate(&p, &[[3.0, 4.0, 0.0]; 2], ("p", "n")).unwrap();
-        assert_eq!(unitised[0], [0.6, 0.8, 0.0]);
+        assert_eq!(validate(&p, &[[3.0, 4.0, 0.0]; 2], ("p", "n")), Ok(()));
+        assert_eq!(
+            key(&[1.0, 2.0, 3.0], &[3.0, 4.0, 0.0], 2.0),
+            [1.0, 2.0, 3.0, 1.2, 1.6, 0.0]
+        );
     }
 }

@@ -3,8 +3,8 @@
 use crate::KdTreeError;
 use crate::build::NormalKdTree;
 use crate::gate::{Gate, PreparedGate};
-use crate::keys::{self, Key, dist2};
-use crate::nearest::{MIN_QUERIES_PER_THREAD, Neighbor};
+use crate::keys::{Key, dist2};
+use crate::nearest::Neighbor;
 
 impl NormalKdTree {
     /// For each query, its `k` nearest keys, nearest first, as `M × k` rows (row-major).
@@ -26,26 +26,17 @@ impl NormalKdTree {
                 value: 0.0,
             });
         }
-        gate.validate()?;
-        let unit = keys::validate(points, normals, ("query points", "query normals"))?;
-        let gate = gate.prepare(self.lambda);
-        let mut out = vec![Neighbor::NONE; points.len() * k];
         let threads = hullcap_core::resolve_threads(threads);
-        // Chunks of whole rows: chunk over queries, each writing its k slots.
-        let mut rows: Vec<&mut [Neighbor]> = out.chunks_mut(k).collect();
-        hullcap_core::for_each_chunk_mut(
-            &mut rows,
+        let (queries, gate) = self.batch_queries(points, normals, gate, threads)?;
+        self.answer_batch(
+            &queries,
+            k,
             threads,
-            MIN_QUERIES_PER_THREAD,
-            |offset, chunk| {
-                let mut heap = KBest::new(k);
-                for (i, row) in chunk.iter_mut().enumerate() {
-                    let q = keys::key(&points[offset + i], &unit[offset + i], self.lambda);
-                    self.k_nearest_key(&q, &gate, &mut heap, row);
-                }
+            || KBest::new(k),
+            |best, q, row| {
+                self.k_nearest_key(q, &gate, best, row);
             },
-        )?;
-        Ok(out)
+        )
     }
 
     fn k_nearest_key(&self, q: &Key, gate: &PreparedGate, best: &mut KBest, row: &mut [Neighbor]) {
@@ -126,11 +117,12 @@ impl KBest {
 mod tests {
     use super::*;
     use crate::BuildOptions;
+    use crate::keys;
     use crate::testing::{adversarial_clouds, random_cloud};
 
     /// All distances from a query to every key, sorted, gated like the tree.
     fn brute_k(tree: &NormalKdTree, p: &[f64; 3], n: &[f64; 3], k: usize, gate: &Gate) -> Vec<f64> {
-        let q = keys::key(p, &keys::unit(n).unwrap(), tree.lambda);
+        let q = keys::key(p, n, tree.lambda);
         let g = gate.prepare(tree.lambda);
         let mut all: Vec<(f64, bool)> = tree
             .keys

@@ -27,6 +27,7 @@
 //! assert_eq!(hit[0].index, 1);
 //! ```
 
+mod batch;
 mod build;
 mod error;
 mod gate;

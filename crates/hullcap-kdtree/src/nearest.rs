@@ -3,10 +3,7 @@
 use crate::KdTreeError;
 use crate::build::NormalKdTree;
 use crate::gate::{Gate, PreparedGate};
-use crate::keys::{self, Key, dist2};
-
-/// Queries per chunk below which a batch is not worth another thread.
-pub(crate) const MIN_QUERIES_PER_THREAD: usize = 512;
+use crate::keys::{Key, dist2};
 
 /// The answer for one query.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,6 +14,12 @@ pub struct Neighbor {
     /// Euclidean distance between the query's key and that key in the 6-D space
     /// (√(‖Δp‖² + λ²‖Δn‖²)); +∞ where `index` is −1.
     pub distance: f64,
+}
+
+impl Default for Neighbor {
+    fn default() -> Self {
+        Neighbor::NONE
+    }
 }
 
 impl Neighbor {
@@ -40,23 +43,17 @@ impl NormalKdTree {
         gate: &Gate,
         threads: Option<usize>,
     ) -> Result<Vec<Neighbor>, KdTreeError> {
-        gate.validate()?;
-        let unit = keys::validate(points, normals, ("query points", "query normals"))?;
-        let gate = gate.prepare(self.lambda);
-        let mut out = vec![Neighbor::NONE; points.len()];
         let threads = hullcap_core::resolve_threads(threads);
-        hullcap_core::for_each_chunk_mut(
-            &mut out,
+        let (queries, gate) = self.batch_queries(points, normals, gate, threads)?;
+        self.answer_batch(
+            &queries,
+            1,
             threads,
-            MIN_QUERIES_PER_THREAD,
-            |offset, chunk| {
-                for (i, slot) in chunk.iter_mut().enumerate() {
-                    let q = keys::key(&points[offset + i], &unit[offset + i], self.lambda);
-                    *slot = self.nearest_key(&q, &gate);
-                }
+            || (),
+            |_, q, row| {
+                row[0] = self.nearest_key(q, &gate);
             },
-        )?;
-        Ok(out)
+        )
     }
 
     /// The nearest key to `q` (already a 6-D key), gated.

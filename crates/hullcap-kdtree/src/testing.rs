@@ -131,5 +131,5 @@ pub(crate) fn distance_to(tree: &NormalKdTree, p: &[f64; 3], n: &[f64; 3], index
 }
 
 fn query_key(tree: &NormalKdTree, p: &[f64; 3], n: &[f64; 3]) -> keys::Key {
-    keys::key(p, &keys::unit(n).expect("non-zero normal"), tree.lambda)
+    keys::key(p, n, tree.lambda)
 }
