@@ -5,6 +5,6 @@ Rust engine, ``hullcap._engine``; everything exported here validates its input a
 ``ValueError`` naming the argument at fault.
 """
 
-from hullcap._engine import NormalKDTree, __version__
+from hullcap._engine import NormalKDTree, __version__, skin_weights
 
-__all__ = ["NormalKDTree", "__version__"]
+__all__ = ["NormalKDTree", "__version__", "skin_weights"]

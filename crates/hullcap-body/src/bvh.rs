@@ -136,20 +136,24 @@ fn build(
 }
 
 /// Whether the segment p + s·dir, s ∈ [0, 1], meets the box (slab test).
+///
+/// A segment parallel to a slab (dir[d] = 0, inv[d] = ±∞) is decided by whether p lies
+/// within it; the general formula would give 0·∞ = NaN when p sits exactly on the slab's
+/// plane, which grid-aligned meshes (marching cubes) produce all the time.
 #[inline]
 fn slab_hit(lo: &[f64; 3], hi: &[f64; 3], p: &[f64; 3], inv: &[f64; 3]) -> bool {
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for d in 0..3 {
+        if inv[d].is_infinite() {
+            if p[d] < lo[d] || p[d] > hi[d] {
+                return false;
+            }
+            continue;
+        }
         let a = (lo[d] - p[d]) * inv[d];
         let b = (hi[d] - p[d]) * inv[d];
-        let (near, far) = if a <= b { (a, b) } else { (b, a) };
-        // NaN (0 · ∞ for a segment in the slab's plane) leaves the bounds unchanged.
-        if near > t0 {
-            t0 = near;
-        }
-        if far < t1 {
-            t1 = far;
-        }
+        t0 = t0.max(a.min(b));
+        t1 = t1.min(a.max(b));
         if t0 > t1 {
             return false;
         }
@@ -247,6 +251,37 @@ mod tests {
             crossings > 300,
             "the test should exercise both answers ({crossings})"
         );
+    }
+
+    #[test]
+    fn segments_in_the_plane_of_a_box_face_are_tested() {
+        // A wall of triangles at x = 0 between z = 0 and z = 1; segments along x at
+        // heights that are exactly the triangles' own z (box faces), as on a voxel grid.
+        let mut v = Vec::new();
+        let mut f = Vec::new();
+        for k in 0..10 {
+            let (z0, z1) = (k as f64 * 0.1, (k + 1) as f64 * 0.1);
+            let b = v.len() as u32;
+            v.extend([
+                [0.0, -1.0, z0],
+                [0.0, 1.0, z0],
+                [0.0, 1.0, z1],
+                [0.0, -1.0, z1],
+            ]);
+            f.extend([[b, b + 1, b + 2], [b, b + 2, b + 3]]);
+        }
+        let bvh = TriangleBvh::new(&v, &f);
+        for k in 0..=10 {
+            let z = k as f64 * 0.1;
+            assert!(
+                bvh.segment_crosses(&[1.0, 0.3, z], &[-1.0, 0.3, z], 999),
+                "z = {z}"
+            );
+            assert!(
+                bvh.segment_crosses(&[1.0, 0.0, z], &[-1.0, 0.0, z], 999),
+                "z = {z}"
+            );
+        }
     }
 
     #[test]

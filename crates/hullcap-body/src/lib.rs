@@ -22,4 +22,4 @@ pub use bvh::TriangleBvh;
 pub use error::BodyError;
 pub use rig::{Posed, Rig, RootPose, SkinWeights};
 pub use skeleton::{Dof, Skeleton, SkeletonPose};
-pub use weights::{SkinWeightOptions, skin_weights};
+pub use weights::{LinkDistances, SkinWeightOptions, link_distances, skin_weights};

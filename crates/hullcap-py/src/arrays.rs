@@ -2,48 +2,106 @@
 //! float64 view out (copied once only when the input is not already one), with errors that
 //! name the argument.
 
-use numpy::{PyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyReadonlyArrayDyn};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-/// A validated (N, 3) float64 array, borrowed from Python for as long as it lives.
-pub(crate) struct Rows3<'py>(PyReadonlyArray2<'py, f64>);
+/// A validated float64 array whose rows have `W` values, borrowed from Python for as long
+/// as it lives.
+pub(crate) struct Rows<'py, const W: usize>(PyReadonlyArrayDyn<'py, f64>);
 
-impl Rows3<'_> {
-    /// The rows as `[x, y, z]` triples.
-    pub(crate) fn rows(&self) -> &[[f64; 3]] {
-        // `rows3` made the array C-contiguous with 3 columns, so both steps hold.
+/// An (N, 3) float64 array.
+pub(crate) type Rows3<'py> = Rows<'py, 3>;
+
+impl<const W: usize> Rows<'_, W> {
+    /// The rows, `W` values each.
+    pub(crate) fn rows(&self) -> &[[f64; W]] {
+        // `float_rows` made the array C-contiguous with rows of W values, so both hold.
         let flat = self.0.as_slice().unwrap_or(&[]);
-        flat.as_chunks::<3>().0
+        flat.as_chunks::<W>().0
     }
 }
 
-/// `obj` as an (N, 3) float64 C-contiguous array: any real numeric dtype is converted,
-/// anything else is a `ValueError` naming `name`.
-pub(crate) fn rows3<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Rows3<'py>> {
-    let py = obj.py();
-    let np = py.import("numpy")?;
+/// `obj` as a C-contiguous array of dtype `dtype` ("float64" or "int64") and shape
+/// (N, *tail): real numbers only (integers only for "int64"); anything else is a
+/// `ValueError` naming `name`.
+fn contiguous<'py>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+    tail: &[usize],
+    dtype: &str,
+) -> PyResult<Bound<'py, PyAny>> {
+    let np = obj.py().import("numpy")?;
     let arr = np
         .call_method1("asarray", (obj,))
         .map_err(|e| PyValueError::new_err(format!("{name} is not an array: {e}")))?;
-    let dtype = arr.getattr("dtype")?;
-    let kind: String = dtype.getattr("kind")?.extract()?;
-    if !matches!(kind.as_str(), "f" | "i" | "u") {
+    let kind_of = arr.getattr("dtype")?;
+    let kind: String = kind_of.getattr("kind")?.extract()?;
+    let allowed: &[&str] = if dtype == "int64" {
+        &["i", "u"]
+    } else {
+        &["f", "i", "u"]
+    };
+    if !allowed.contains(&kind.as_str()) {
+        let what = if dtype == "int64" {
+            "integers"
+        } else {
+            "real numbers"
+        };
         return Err(PyValueError::new_err(format!(
-            "{name} must hold real numbers, got dtype {}",
-            dtype.str()?
+            "{name} must hold {what}, got dtype {}",
+            kind_of.str()?
         )));
     }
     let shape: Vec<usize> = arr.getattr("shape")?.extract()?;
-    if shape.len() != 2 || shape[1] != 3 {
+    if shape.len() != tail.len() + 1 || shape[1..] != *tail {
+        let want: Vec<String> = std::iter::once("N".to_owned())
+            .chain(tail.iter().map(|t| t.to_string()))
+            .collect();
         return Err(PyValueError::new_err(format!(
-            "{name} must have shape (N, 3), got {shape:?}"
+            "{name} must have shape ({}), got {shape:?}",
+            want.join(", ")
         )));
     }
-    let contiguous = np.call_method1("ascontiguousarray", (arr, "float64"))?;
-    let readonly: PyReadonlyArray2<'py, f64> = contiguous.extract()?;
-    debug_assert!(readonly.is_c_contiguous());
-    Ok(Rows3(readonly))
+    np.call_method1("ascontiguousarray", (arr, dtype))
+}
+
+/// `obj` as float64 rows of `W` values, shaped (N, *tail) with the product of `tail` = W.
+pub(crate) fn float_rows<'py, const W: usize>(
+    obj: &Bound<'py, PyAny>,
+    name: &str,
+    tail: &[usize],
+) -> PyResult<Rows<'py, W>> {
+    debug_assert_eq!(tail.iter().product::<usize>(), W);
+    Ok(Rows(contiguous(obj, name, tail, "float64")?.extract()?))
+}
+
+/// `obj` as an (N, 3) float64 C-contiguous array.
+pub(crate) fn rows3<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Rows3<'py>> {
+    float_rows(obj, name, &[3])
+}
+
+/// `obj` as (N, W) indices, each in `0..bound`, as u32.
+pub(crate) fn index_rows<const W: usize>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    bound: usize,
+) -> PyResult<Vec<[u32; W]>> {
+    let arr: PyReadonlyArrayDyn<'_, i64> = contiguous(obj, name, &[W], "int64")?.extract()?;
+    let flat = arr.as_slice().unwrap_or(&[]);
+    if let Some(at) = flat.iter().position(|&i| i < 0 || i as usize >= bound) {
+        return Err(PyValueError::new_err(format!(
+            "{name}[{}] holds {}, outside 0..{bound}",
+            at / W,
+            flat[at]
+        )));
+    }
+    Ok(flat
+        .as_chunks::<W>()
+        .0
+        .iter()
+        .map(|r| r.map(|i| i as u32))
+        .collect())
 }
 
 /// A count argument from Python (`k`, `leaf_size`, `threads`) checked to be ≥ `min`.

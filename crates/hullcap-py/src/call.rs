@@ -19,6 +19,15 @@ impl IntoPyErr for hullcap_kdtree::KdTreeError {
     }
 }
 
+impl IntoPyErr for hullcap_body::BodyError {
+    fn into_py_err(self) -> PyErr {
+        match self {
+            hullcap_body::BodyError::Worker(e) => PyRuntimeError::new_err(e.to_string()),
+            other => PyValueError::new_err(other.to_string()),
+        }
+    }
+}
+
 /// Runs `f` without the GIL; its error becomes the matching Python exception, and a panic
 /// (an engine bug) becomes `RuntimeError` instead of crossing into Python.
 pub(crate) fn detached<T, E, F>(py: Python<'_>, f: F) -> PyResult<T>

@@ -5,6 +5,7 @@
 //! pure crates beside it.
 
 mod arrays;
+mod body;
 mod call;
 mod kdtree;
 
@@ -15,5 +16,8 @@ use pyo3::prelude::*;
 fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<kdtree::NormalKDTree>()?;
+    m.add_class::<body::Rig>()?;
+    m.add_function(wrap_pyfunction!(body::skin_weights, m)?)?;
+    m.add_function(wrap_pyfunction!(body::link_distances, m)?)?;
     Ok(())
 }

@@ -1,0 +1,294 @@
+//! The body model's engine: geodesic skin weights and the rig (skinning, derivatives).
+
+use crate::arrays::{self, float_rows, index_rows, rows3};
+use crate::call::detached;
+use hullcap_body::{
+    BodyError, Dof, Rig as EngineRig, RootPose, Skeleton, SkinWeightOptions, SkinWeights,
+};
+use nalgebra::{Matrix3, Vector3};
+use numpy::{PyArray1, PyArrayMethods};
+use pyo3::prelude::*;
+
+type F64Array<'py> = Bound<'py, numpy::PyArrayDyn<f64>>;
+
+/// Rows of fixed width as a NumPy array of shape (N, *tail).
+fn to_numpy<'py, const W: usize>(
+    py: Python<'py>,
+    rows: &[[f64; W]],
+    tail: &[usize],
+) -> PyResult<F64Array<'py>> {
+    let flat: Vec<f64> = rows.as_flattened().to_vec();
+    let shape: Vec<usize> = std::iter::once(rows.len())
+        .chain(tail.iter().copied())
+        .collect();
+    PyArray1::from_vec(py, flat).reshape(shape)
+}
+
+fn flat_to_numpy<'py>(py: Python<'py>, flat: Vec<f64>, shape: &[usize]) -> PyResult<F64Array<'py>> {
+    PyArray1::from_vec(py, flat).reshape(shape.to_vec())
+}
+
+/// Non-penetrating geodesic skin weights; see `hullcap.skin_weights`.
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, links, b=40.0, k=4, groups=None, threads=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn skin_weights<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    links: &Bound<'py, PyAny>,
+    b: f64,
+    k: i64,
+    groups: Option<Vec<i64>>,
+    threads: Option<i64>,
+) -> PyResult<(Bound<'py, numpy::PyArrayDyn<i64>>, F64Array<'py>)> {
+    let vertices = rows3(vertices, "vertices")?;
+    let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
+    let links = float_rows::<6>(links, "links", &[2, 3])?;
+    let n_links = links.rows().len();
+    let groups: Vec<u32> = match groups {
+        None => (0..n_links as u32).collect(),
+        Some(g) => g
+            .iter()
+            .map(|&x| {
+                u32::try_from(x).map_err(|_| {
+                    pyo3::exceptions::PyValueError::new_err(format!(
+                        "groups holds {x}, a negative or huge index"
+                    ))
+                })
+            })
+            .collect::<PyResult<_>>()?,
+    };
+    let n_groups = groups.iter().map(|&g| g as usize + 1).max().unwrap_or(0);
+    let options = SkinWeightOptions {
+        b,
+        k: arrays::count(k, "k", 1)?,
+        threads: arrays::threads(threads)?,
+    };
+    let segments: Vec<[[f64; 3]; 2]> = links
+        .rows()
+        .iter()
+        .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]]])
+        .collect();
+    let v = vertices.rows();
+    let (weights, _) = detached(py, || {
+        hullcap_body::skin_weights(v, &faces, &segments, &groups, n_groups, &options)
+    })?;
+    let shape = [v.len(), weights.k];
+    let index: Vec<i64> = weights.index.iter().map(|&i| i64::from(i)).collect();
+    Ok((
+        PyArray1::from_vec(py, index).reshape(shape.to_vec())?,
+        flat_to_numpy(py, weights.weight, &shape)?,
+    ))
+}
+
+/// x_ij and the direct arcs, with the time of each stage; see `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, links, threads=None))]
+pub(crate) fn link_distances<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    links: &Bound<'py, PyAny>,
+    threads: Option<i64>,
+) -> PyResult<(F64Array<'py>, F64Array<'py>, f64, f64)> {
+    let vertices = rows3(vertices, "vertices")?;
+    let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
+    let links = float_rows::<6>(links, "links", &[2, 3])?;
+    let segments: Vec<[[f64; 3]; 2]> = links
+        .rows()
+        .iter()
+        .map(|r| [[r[0], r[1], r[2]], [r[3], r[4], r[5]]])
+        .collect();
+    let threads = arrays::threads(threads)?;
+    let v = vertices.rows();
+    let found = detached(py, || {
+        hullcap_body::link_distances(v, &faces, &segments, threads)
+    })?;
+    let (nv, nl) = (v.len(), segments.len());
+    Ok((
+        flat_to_numpy(py, found.distances, &[nl, nv])?,
+        flat_to_numpy(py, found.direct, &[nv, nl])?,
+        found.visibility_seconds,
+        found.dijkstra_seconds,
+    ))
+}
+
+/// A rigged mesh: skeleton + rest mesh + K-sparse skin weights (the engine under
+/// `hullcap.BodyModel`).
+#[pyclass(module = "hullcap._engine", name = "Rig", frozen)]
+pub(crate) struct Rig {
+    rig: EngineRig,
+}
+
+fn root_pose(
+    rotation: Option<&Bound<'_, PyAny>>,
+    translation: Option<&Bound<'_, PyAny>>,
+) -> PyResult<RootPose> {
+    let mut root = RootPose::default();
+    if let Some(r) = rotation {
+        let rows = float_rows::<9>(
+            &r.call_method1("reshape", ((1, 3, 3),)).map_err(|_| {
+                pyo3::exceptions::PyValueError::new_err("root_rotation must be a 3×3 matrix")
+            })?,
+            "root_rotation",
+            &[3, 3],
+        )?;
+        root.rotation = Matrix3::from_row_slice(&rows.rows()[0]);
+    }
+    if let Some(t) = translation {
+        let rows = float_rows::<3>(
+            &t.call_method1("reshape", ((1, 3),)).map_err(|_| {
+                pyo3::exceptions::PyValueError::new_err("root_translation must have 3 values")
+            })?,
+            "root_translation",
+            &[3],
+        )?;
+        root.translation = Vector3::from(rows.rows()[0]);
+    }
+    Ok(root)
+}
+
+#[pymethods]
+impl Rig {
+    #[new]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        parents: Vec<i64>,
+        origins: &Bound<'_, PyAny>,
+        dof_links: Vec<i64>,
+        dof_axes: &Bound<'_, PyAny>,
+        dof_limits: &Bound<'_, PyAny>,
+        vertices: &Bound<'_, PyAny>,
+        normals: &Bound<'_, PyAny>,
+        weight_links: &Bound<'_, PyAny>,
+        weights: &Bound<'_, PyAny>,
+    ) -> PyResult<Self> {
+        use crate::call::IntoPyErr;
+        let origins = rows3(origins, "origins")?;
+        let axes = rows3(dof_axes, "dof_axes")?;
+        let limits = float_rows::<2>(dof_limits, "dof_limits", &[2])?;
+        if dof_links.len() != axes.rows().len() || dof_links.len() != limits.rows().len() {
+            return Err(BodyError::WrongLength {
+                array: "dof_axes/dof_limits",
+                got: axes.rows().len(),
+                expected: dof_links.len(),
+            }
+            .into_py_err());
+        }
+        let dofs = dof_links
+            .iter()
+            .zip(axes.rows().iter().zip(limits.rows()))
+            .map(|(&link, (axis, lim))| Dof {
+                link: usize::try_from(link).unwrap_or(usize::MAX),
+                axis: Vector3::from(*axis),
+                lower: lim[0],
+                upper: lim[1],
+            })
+            .collect();
+        let skeleton =
+            Skeleton::new(&parents, origins.rows(), dofs).map_err(IntoPyErr::into_py_err)?;
+        let np = weights.py().import("numpy")?;
+        let k: usize = np
+            .call_method1("shape", (weights,))?
+            .extract::<Vec<usize>>()?
+            .get(1)
+            .copied()
+            .unwrap_or(0);
+        let n_links = skeleton.n_links();
+        let weight_rows = match k {
+            1 => (
+                index_rows::<1>(weight_links, "weight_links", n_links)?.concat(),
+                float_rows::<1>(weights, "weights", &[1])?.rows().concat(),
+            ),
+            2 => (
+                index_rows::<2>(weight_links, "weight_links", n_links)?.concat(),
+                float_rows::<2>(weights, "weights", &[2])?.rows().concat(),
+            ),
+            3 => (
+                index_rows::<3>(weight_links, "weight_links", n_links)?.concat(),
+                float_rows::<3>(weights, "weights", &[3])?.rows().concat(),
+            ),
+            4 => (
+                index_rows::<4>(weight_links, "weight_links", n_links)?.concat(),
+                float_rows::<4>(weights, "weights", &[4])?.rows().concat(),
+            ),
+            _ => {
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "weights must have 1 to 4 columns (K), got {k}"
+                )));
+            }
+        };
+        let sw = SkinWeights {
+            k,
+            index: weight_rows.0,
+            weight: weight_rows.1,
+        };
+        let vertices = rows3(vertices, "vertices")?;
+        let normals = rows3(normals, "normals")?;
+        let rig = EngineRig::new(skeleton, vertices.rows(), normals.rows(), sw)
+            .map_err(IntoPyErr::into_py_err)?;
+        Ok(Rig { rig })
+    }
+
+    /// Number of joint DOF.
+    #[getter]
+    fn n_dofs(&self) -> usize {
+        self.rig.skeleton().n_dofs()
+    }
+
+    /// Poses the mesh: (vertices (V, 3), normals (V, 3), joint centres (L, 3), link
+    /// rotations (L, 3, 3)), all in the world frame.
+    #[pyo3(signature = (theta, root_rotation=None, root_translation=None, threads=None))]
+    fn pose<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Vec<f64>,
+        root_rotation: Option<&Bound<'py, PyAny>>,
+        root_translation: Option<&Bound<'py, PyAny>>,
+        threads: Option<i64>,
+    ) -> PyResult<(F64Array<'py>, F64Array<'py>, F64Array<'py>, F64Array<'py>)> {
+        let root = root_pose(root_rotation, root_translation)?;
+        let threads = arrays::threads(threads)?;
+        let posed = detached(py, || self.rig.pose(&theta, &root, threads))?;
+        let joints: Vec<[f64; 3]> = posed
+            .skeleton
+            .position
+            .iter()
+            .map(|p| (root.rotation * p + root.translation).into())
+            .collect();
+        let rotations: Vec<[f64; 9]> = posed
+            .skeleton
+            .rotation
+            .iter()
+            .map(|r| {
+                let w = root.rotation * r;
+                std::array::from_fn(|i| w[(i / 3, i % 3)])
+            })
+            .collect();
+        Ok((
+            to_numpy(py, &posed.vertices, &[3])?,
+            to_numpy(py, &posed.normals, &[3])?,
+            to_numpy(py, &joints, &[3])?,
+            to_numpy(py, &rotations, &[3, 3])?,
+        ))
+    }
+
+    /// ∂(world vertex)/∂(parameter), shape (V, 6 + n_dofs, 3); parameters ordered
+    /// (tx, ty, tz, ωx, ωy, ωz, θ…), rotations as R ← exp([ω]×)·R.
+    #[pyo3(signature = (theta, root_rotation=None, root_translation=None, threads=None))]
+    fn jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Vec<f64>,
+        root_rotation: Option<&Bound<'py, PyAny>>,
+        root_translation: Option<&Bound<'py, PyAny>>,
+        threads: Option<i64>,
+    ) -> PyResult<F64Array<'py>> {
+        let root = root_pose(root_rotation, root_translation)?;
+        let threads = arrays::threads(threads)?;
+        let jac = detached(py, || self.rig.jacobian(&theta, &root, threads))?;
+        let shape = [self.rig.n_vertices(), self.rig.n_params(), 3];
+        flat_to_numpy(py, jac.as_flattened().to_vec(), &shape)
+    }
+}
