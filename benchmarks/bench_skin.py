@@ -15,25 +15,11 @@ import sys
 import time
 
 import numpy as np
-from skimage.measure import marching_cubes
 
 sys.path.insert(0, os.path.dirname(__file__))
 from hullcap import _engine  # noqa: E402
+from hullcap._implicit import capsule_union_mesh  # noqa: E402
 from surfaces import CAPSULES  # noqa: E402
-
-
-def capsule_mesh(voxel: float):
-    ends = np.array([c[0] for c in CAPSULES] + [c[1] for c in CAPSULES])
-    lo, hi = ends.min(0) - 0.2, ends.max(0) + 0.2
-    axes = [np.arange(lo[d], hi[d], voxel) for d in range(3)]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
-    field = np.full(grid.shape[:3], np.inf)
-    for a, b, r in CAPSULES:
-        a, b = np.asarray(a, float), np.asarray(b, float)
-        t = np.clip(((grid - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)
-        field = np.minimum(field, np.linalg.norm(grid - (a + t[..., None] * (b - a)), axis=-1) - r)
-    v, f, _, _ = marching_cubes(field, 0.0, spacing=(voxel,) * 3)
-    return v + lo, f.astype(np.int64)
 
 
 def scipy_dijkstra_seconds(v, f, direct):
@@ -61,7 +47,7 @@ def main() -> None:
     print("| vertices | links | visibility (s) | Dijkstra (s) | SciPy Dijkstra (s) | Dijkstra vs SciPy | total skin_weights (s) |")
     print("|---|---|---|---|---|---|---|")
     for voxel in (0.016, 0.008, 0.004):
-        v, f = capsule_mesh(voxel)
+        v, f = capsule_union_mesh(CAPSULES, voxel, pad=0.2)
         x, direct, t_vis, t_dij = _engine.link_distances(v, f, links)
         t_scipy, x_scipy = scipy_dijkstra_seconds(v, f, direct)
         np.testing.assert_allclose(x, x_scipy, rtol=1e-9)  # same graph, same answer

@@ -2,26 +2,10 @@
 
 import numpy as np
 import pytest
-from skimage.measure import marching_cubes
 
 import hullcap
 from hullcap import _engine
-
-
-def capsule_body(capsules, voxel=0.006, pad=0.03):
-    """A closed mesh around a union of capsules ((a, b, radius), ...) by marching cubes."""
-    ends = np.array([c[0] for c in capsules] + [c[1] for c in capsules])
-    r = max(c[2] for c in capsules)
-    lo, hi = ends.min(0) - r - pad, ends.max(0) + r + pad
-    axes = [np.arange(lo[d], hi[d], voxel) for d in range(3)]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
-    field = np.full(grid.shape[:3], np.inf)
-    for a, b, radius in capsules:
-        a, b = np.asarray(a, float), np.asarray(b, float)
-        t = np.clip(((grid - a) @ (b - a)) / ((b - a) @ (b - a)), 0, 1)
-        field = np.minimum(field, np.linalg.norm(grid - (a + t[..., None] * (b - a)), axis=-1) - radius)
-    verts, faces, _, _ = marching_cubes(field, 0.0, spacing=(voxel,) * 3)
-    return verts + lo, faces.astype(np.int64)
+from hullcap._implicit import capsule_union_mesh as capsule_body
 
 
 def closest_distances(vertices, links):
