@@ -81,27 +81,45 @@ pub(crate) fn rows3<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Rows3<
     float_rows(obj, name, &[3])
 }
 
-/// `obj` as (N, W) indices, each in `0..bound`, as u32.
+/// `obj` as (N, `width`) indices, each in `0..bound`, flattened row-major as u32.
+pub(crate) fn flat_indices(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    width: usize,
+    bound: usize,
+) -> PyResult<Vec<u32>> {
+    let arr: PyReadonlyArrayDyn<'_, i64> = contiguous(obj, name, &[width], "int64")?.extract()?;
+    let flat = arr.as_slice().unwrap_or(&[]);
+    if let Some(at) = flat.iter().position(|&i| i < 0 || i as usize >= bound) {
+        return Err(PyValueError::new_err(format!(
+            "{name}[{}] holds {}, outside 0..{bound}",
+            at / width.max(1),
+            flat[at]
+        )));
+    }
+    Ok(flat.iter().map(|&i| i as u32).collect())
+}
+
+/// `obj` as (N, W) indices, each in `0..bound`, as u32 rows.
 pub(crate) fn index_rows<const W: usize>(
     obj: &Bound<'_, PyAny>,
     name: &str,
     bound: usize,
 ) -> PyResult<Vec<[u32; W]>> {
-    let arr: PyReadonlyArrayDyn<'_, i64> = contiguous(obj, name, &[W], "int64")?.extract()?;
-    let flat = arr.as_slice().unwrap_or(&[]);
-    if let Some(at) = flat.iter().position(|&i| i < 0 || i as usize >= bound) {
-        return Err(PyValueError::new_err(format!(
-            "{name}[{}] holds {}, outside 0..{bound}",
-            at / W,
-            flat[at]
-        )));
-    }
-    Ok(flat
+    Ok(flat_indices(obj, name, W, bound)?
         .as_chunks::<W>()
         .0
-        .iter()
-        .map(|r| r.map(|i| i as u32))
-        .collect())
+        .to_vec())
+}
+
+/// `obj` as float64 values of shape (N, *tail), flattened row-major (a copy).
+pub(crate) fn flat_floats(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    tail: &[usize],
+) -> PyResult<Vec<f64>> {
+    let arr: PyReadonlyArrayDyn<'_, f64> = contiguous(obj, name, tail, "float64")?.extract()?;
+    Ok(arr.as_slice().unwrap_or(&[]).to_vec())
 }
 
 /// A count argument from Python (`k`, `leaf_size`, `threads`) checked to be ≥ `min`.

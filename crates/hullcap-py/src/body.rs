@@ -189,41 +189,18 @@ impl Rig {
         let skeleton =
             Skeleton::new(&parents, origins.rows(), dofs).map_err(IntoPyErr::into_py_err)?;
         let np = weights.py().import("numpy")?;
-        let k: usize = np
-            .call_method1("shape", (weights,))?
-            .extract::<Vec<usize>>()?
-            .get(1)
-            .copied()
-            .unwrap_or(0);
-        let n_links = skeleton.n_links();
-        let weight_rows = match k {
-            1 => (
-                index_rows::<1>(weight_links, "weight_links", n_links)?.concat(),
-                float_rows::<1>(weights, "weights", &[1])?.rows().concat(),
-            ),
-            2 => (
-                index_rows::<2>(weight_links, "weight_links", n_links)?.concat(),
-                float_rows::<2>(weights, "weights", &[2])?.rows().concat(),
-            ),
-            3 => (
-                index_rows::<3>(weight_links, "weight_links", n_links)?.concat(),
-                float_rows::<3>(weights, "weights", &[3])?.rows().concat(),
-            ),
-            4 => (
-                index_rows::<4>(weight_links, "weight_links", n_links)?.concat(),
-                float_rows::<4>(weights, "weights", &[4])?.rows().concat(),
-            ),
+        let shape: Vec<usize> = np.call_method1("shape", (weights,))?.extract()?;
+        let k = match shape.as_slice() {
+            [_, k] if *k >= 1 => *k,
             _ => {
                 return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                    "weights must have 1 to 4 columns (K), got {k}"
+                    "weights must have shape (V, K) with K >= 1, got {shape:?}"
                 )));
             }
         };
-        let sw = SkinWeights {
-            k,
-            index: weight_rows.0,
-            weight: weight_rows.1,
-        };
+        let index = arrays::flat_indices(weight_links, "weight_links", k, skeleton.n_links())?;
+        let weight = arrays::flat_floats(weights, "weights", &[k])?;
+        let sw = SkinWeights { k, index, weight };
         let vertices = rows3(vertices, "vertices")?;
         let normals = rows3(normals, "normals")?;
         let rig = EngineRig::new(skeleton, vertices.rows(), normals.rows(), sw)
