@@ -156,3 +156,26 @@ class Rig:
     ) -> npt.NDArray[np.float64]:
         """(V, 6 + n_dofs, 3) derivatives of the world vertices: (tx, ty, tz, ωx, ωy, ωz,
         θ…), with rotations perturbed as R ← exp([ω]×)·R."""
+
+def rasterize(
+    vertices: ArrayLike3,
+    faces: npt.ArrayLike,
+    width: int,
+    height: int,
+    near: float = 1e-3,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.int32]]:
+    """Z-buffered rasterisation of triangles already projected into an image.
+
+    Args:
+        vertices: (V, 3) rows (u, v, z): pixel coordinates (pixel (0, 0) is the centre of
+            the top-left pixel) and camera depth in metres.
+        faces: (T, 3) vertex indices.
+        width, height: image size in pixels.
+        near: triangles with a corner at depth <= near are skipped.
+        threads: worker threads; ``None`` = all cores.
+
+    Returns:
+        ``(depth, face)``: (height, width) float32 depth of the nearest surface (inf where
+        none) and int32 index of the triangle seen (-1 where none).
+    """

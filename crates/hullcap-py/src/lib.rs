@@ -8,6 +8,7 @@ mod arrays;
 mod body;
 mod call;
 mod kdtree;
+mod raster;
 
 use pyo3::prelude::*;
 
@@ -19,5 +20,6 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<body::Rig>()?;
     m.add_function(wrap_pyfunction!(body::skin_weights, m)?)?;
     m.add_function(wrap_pyfunction!(body::link_distances, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::rasterize, m)?)?;
     Ok(())
 }

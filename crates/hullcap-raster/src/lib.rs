@@ -1,0 +1,16 @@
+//! Z-buffered rasterisation of triangle meshes already projected to pixels.
+//!
+//! The renderer of synthetic sequences (`hullcap.synth`) projects a mesh into each camera
+//! (with its distortion) and hands the engine pixel coordinates and camera depths; the
+//! engine returns, per pixel, the depth of the nearest surface and the triangle seen
+//! there. Silhouettes, shading and pictures are made from those in Python.
+//!
+//! Pixel (0, 0) is the centre of the top-left pixel (OpenCV's convention). A pixel is
+//! covered when its centre lies inside the triangle (edges shared by two triangles are
+//! owned by one of them, by the top-left rule). Depth is interpolated
+//! perspective-correctly (1/z is linear in the image). Triangles with a corner at or
+//! behind the camera's near plane are skipped, not clipped.
+
+mod raster;
+
+pub use raster::{RasterError, Rendered, rasterize};

@@ -1,0 +1,268 @@
+//! The rasteriser: bands of image rows in parallel, every band sees every triangle.
+
+use hullcap_core::{WorkerPanicked, for_each_chunk_mut, resolve_threads};
+
+/// Why a rasterisation was refused.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RasterError {
+    /// A face refers to a vertex that does not exist.
+    #[error("face {face} refers to vertex {vertex}, but there are {n} vertices")]
+    BadIndex {
+        /// The face's row.
+        face: usize,
+        /// The offending index.
+        vertex: u32,
+        /// Number of vertices.
+        n: usize,
+    },
+    /// The image would be empty or absurdly large.
+    #[error("image size {width}×{height} is not allowed (1 to 2^14 per side)")]
+    BadSize {
+        /// Width in pixels.
+        width: usize,
+        /// Height in pixels.
+        height: usize,
+    },
+    /// A worker thread panicked.
+    #[error(transparent)]
+    Panicked(#[from] WorkerPanicked),
+}
+
+/// A depth buffer and the triangle seen at each pixel, row-major, `width × height`.
+#[derive(Debug, Clone)]
+pub struct Rendered {
+    /// Camera depth (z) of the nearest surface; `f32::INFINITY` where nothing is seen.
+    pub depth: Vec<f32>,
+    /// Index of the triangle seen; −1 where nothing is seen.
+    pub face: Vec<i32>,
+}
+
+/// A triangle in pixel space, ready for edge tests.
+struct Screen {
+    face: i32,
+    /// Pixel bounding box, inclusive.
+    x0: i32,
+    x1: i32,
+    y0: i32,
+    y1: i32,
+    /// Edge functions e_k(x, y) = a_k x + b_k y + c_k, normalised so the three sum to 1
+    /// inside (barycentric coordinates).
+    a: [f64; 3],
+    b: [f64; 3],
+    c: [f64; 3],
+    /// Whether a pixel exactly on edge k belongs to this triangle (top-left rule).
+    owns_edge: [bool; 3],
+    /// 1/z at the three corners.
+    inv_z: [f64; 3],
+}
+
+/// Rasterises triangles `faces` over `vertices` given as (u, v, z): pixel coordinates and
+/// camera depth (metres, positive in front). Threads: `None` = all cores.
+///
+/// ```
+/// let vertices = [[1.0, 1.0, 2.0], [8.0, 1.0, 2.0], [1.0, 8.0, 2.0]];
+/// let out = hullcap_raster::rasterize(&vertices, &[[0, 1, 2]], 10, 10, 0.01, None).unwrap();
+/// assert_eq!(out.face[2 * 10 + 2], 0);
+/// assert_eq!(out.face[9 * 10 + 9], -1);
+/// assert_eq!(out.depth[2 * 10 + 2], 2.0);
+/// ```
+pub fn rasterize(
+    vertices: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    width: usize,
+    height: usize,
+    near: f64,
+    threads: Option<usize>,
+) -> Result<Rendered, RasterError> {
+    const MAX_SIDE: usize = 1 << 14;
+    if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
+        return Err(RasterError::BadSize { width, height });
+    }
+    let mut screens = Vec::with_capacity(faces.len());
+    for (f, tri) in faces.iter().enumerate() {
+        let mut corners = [[0.0; 3]; 3];
+        for (k, &v) in tri.iter().enumerate() {
+            corners[k] = *vertices.get(v as usize).ok_or(RasterError::BadIndex {
+                face: f,
+                vertex: v,
+                n: vertices.len(),
+            })?;
+        }
+        if let Some(s) = setup(f as i32, &corners, width, height, near) {
+            screens.push(s);
+        }
+    }
+    let mut pixels = vec![(f32::INFINITY, -1i32); width * height];
+    let threads = resolve_threads(threads);
+    for_each_chunk_mut(&mut pixels, threads, width * 8, |offset, chunk| {
+        draw_band(&screens, width, offset, chunk);
+    })?;
+    let (depth, face) = pixels.into_iter().unzip();
+    Ok(Rendered { depth, face })
+}
+
+fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -> Option<Screen> {
+    if p.iter().any(|c| !(c[2] > near) || !c[0].is_finite() || !c[1].is_finite()) {
+        return None;
+    }
+    let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+    if area == 0.0 || !area.is_finite() {
+        return None;
+    }
+    let (mut a, mut b, mut c) = ([0.0; 3], [0.0; 3], [0.0; 3]);
+    let mut owns_edge = [false; 3];
+    for k in 0..3 {
+        // Edge opposite corner k runs from corner i to corner j.
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        let (ea, eb) = (p[i][1] - p[j][1], p[j][0] - p[i][0]);
+        a[k] = ea / area;
+        b[k] = eb / area;
+        c[k] = (p[i][0] * p[j][1] - p[j][0] * p[i][1]) / area;
+        // Top-left rule on the normalised edge function (inside is positive): own the
+        // edge when its inward normal points down (+v) or, if horizontal, right (+u).
+        owns_edge[k] = b[k] > 0.0 || (b[k] == 0.0 && a[k] > 0.0);
+    }
+    let lo = |d: usize| p.iter().map(|c| c[d]).fold(f64::INFINITY, f64::min);
+    let hi = |d: usize| p.iter().map(|c| c[d]).fold(f64::NEG_INFINITY, f64::max);
+    let x0 = lo(0).ceil().max(0.0);
+    let y0 = lo(1).ceil().max(0.0);
+    let x1 = hi(0).floor().min(width as f64 - 1.0);
+    let y1 = hi(1).floor().min(height as f64 - 1.0);
+    if x0 > x1 || y0 > y1 {
+        return None;
+    }
+    Some(Screen {
+        face,
+        x0: x0 as i32,
+        x1: x1 as i32,
+        y0: y0 as i32,
+        y1: y1 as i32,
+        a,
+        b,
+        c,
+        owns_edge,
+        inv_z: [1.0 / p[0][2], 1.0 / p[1][2], 1.0 / p[2][2]],
+    })
+}
+
+/// Draws every triangle into the pixels `offset .. offset + band.len()` of the image.
+fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, i32)]) {
+    let first_row = (offset / width) as i32;
+    let last_row = ((offset + band.len() - 1) / width) as i32;
+    let (lo, hi) = (offset, offset + band.len());
+    for s in screens {
+        if s.y1 < first_row || s.y0 > last_row {
+            continue;
+        }
+        for y in s.y0.max(first_row)..=s.y1.min(last_row) {
+            for x in s.x0..=s.x1 {
+                let pixel = y as usize * width + x as usize;
+                if pixel < lo || pixel >= hi {
+                    continue;
+                }
+                let (xf, yf) = (f64::from(x), f64::from(y));
+                let mut bary = [0.0; 3];
+                let mut inside = true;
+                for k in 0..3 {
+                    let e = s.a[k] * xf + s.b[k] * yf + s.c[k];
+                    if e < 0.0 || (e == 0.0 && !s.owns_edge[k]) {
+                        inside = false;
+                        break;
+                    }
+                    bary[k] = e;
+                }
+                if !inside {
+                    continue;
+                }
+                let inv_z = bary[0] * s.inv_z[0] + bary[1] * s.inv_z[1] + bary[2] * s.inv_z[2];
+                let z = (1.0 / inv_z) as f32;
+                let slot = &mut band[pixel - lo];
+                if z < slot.0 || (z == slot.0 && s.face < slot.1) {
+                    *slot = (z, s.face);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A square of two triangles covering pixels 2..=5 in both directions.
+    fn square(z: f64) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let v = vec![[1.5, 1.5, z], [5.5, 1.5, z], [5.5, 5.5, z], [1.5, 5.5, z]];
+        (v, vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    #[test]
+    fn a_square_covers_its_pixels_once_each() {
+        let (v, f) = square(3.0);
+        let out = rasterize(&v, &f, 8, 8, 0.01, Some(3)).unwrap();
+        let covered = out.face.iter().filter(|&&f| f >= 0).count();
+        assert_eq!(covered, 16);
+        for y in 0..8 {
+            for x in 0..8 {
+                let inside = (2..=5).contains(&x) && (2..=5).contains(&y);
+                assert_eq!(out.face[y * 8 + x] >= 0, inside, "pixel ({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn shared_edges_through_pixel_centres_are_drawn_once() {
+        // A fan of triangles around a pixel centre: every pixel centre on an inner edge
+        // must be owned by exactly one triangle, so the fan covers the same pixels as
+        // the square it tiles.
+        let c = [4.0, 4.0, 1.0];
+        let ring = [[1.0, 1.0, 1.0], [7.0, 1.0, 1.0], [7.0, 7.0, 1.0], [1.0, 7.0, 1.0]];
+        let mut v = vec![c];
+        v.extend(ring);
+        let f = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
+        let fan = rasterize(&v, &f, 9, 9, 0.01, Some(1)).unwrap();
+        let mut counts = vec![0; 81];
+        for tri in &f {
+            let one = rasterize(&v, &[*tri], 9, 9, 0.01, Some(1)).unwrap();
+            for p in 0..81 {
+                if one.face[p] == 0 {
+                    counts[p] += 1;
+                }
+            }
+        }
+        assert!(counts.iter().all(|&c| c <= 1), "a pixel drawn twice: {counts:?}");
+        let covered = fan.face.iter().filter(|&&f| f >= 0).count();
+        assert_eq!(covered, counts.iter().sum::<usize>());
+    }
+
+    #[test]
+    fn nearer_surface_wins_and_depth_is_perspective_correct() {
+        let (mut v, mut f) = square(3.0);
+        let (v2, f2) = square(2.0);
+        f.extend(f2.iter().map(|t| [t[0] + 4, t[1] + 4, t[2] + 4]));
+        v.extend(v2);
+        let out = rasterize(&v, &f, 8, 8, 0.01, None).unwrap();
+        assert!(out.face[3 * 8 + 3] >= 2);
+        assert_eq!(out.depth[3 * 8 + 3], 2.0);
+        // A slanted triangle: depth from 1 to 3 along u; 1/z is linear in the image.
+        let v = vec![[0.0, 0.0, 1.0], [10.0, 0.0, 3.0], [0.0, 10.0, 1.0]];
+        let out = rasterize(&v, &[[0, 1, 2]], 11, 11, 0.01, None).unwrap();
+        let expect = 1.0 / (1.0 - 0.5 + 0.5 / 3.0);
+        assert!((f64::from(out.depth[5]) - expect).abs() < 1e-6);
+    }
+
+    #[test]
+    fn threads_agree_and_bad_input_is_refused() {
+        let (v, f) = square(3.0);
+        let one = rasterize(&v, &f, 8, 40, 0.01, Some(1)).unwrap();
+        let many = rasterize(&v, &f, 8, 40, 0.01, Some(7)).unwrap();
+        assert_eq!(one.face, many.face);
+        assert!(matches!(
+            rasterize(&v, &[[0, 1, 9]], 8, 8, 0.01, None),
+            Err(RasterError::BadIndex { face: 0, vertex: 9, .. })
+        ));
+        assert!(matches!(rasterize(&v, &f, 0, 8, 0.01, None), Err(RasterError::BadSize { .. })));
+        let behind = vec![[1.0, 1.0, -1.0], [5.0, 1.0, 2.0], [1.0, 5.0, 2.0]];
+        let out = rasterize(&behind, &[[0, 1, 2]], 8, 8, 0.01, None).unwrap();
+        assert!(out.face.iter().all(|&f| f == -1));
+    }
+}

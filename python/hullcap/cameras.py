@@ -1,0 +1,330 @@
+"""Calibrated cameras: OpenCV's pinhole model with distortion (FORMATS.md, cameras.json).
+
+A world point X (metres, z up) maps to camera coordinates x = R·X + t, then to pixels by
+K after the distortion dist = [k1, k2, p1, p2, k3]. Pixel (0, 0) is the centre of the
+top-left pixel. Besides our own ``cameras.json``, the calibrations of EasyMocap
+(OpenCV FileStorage ``intri.yml`` + ``extri.yml``) and Pose2Sim (``Calib.toml``) import.
+"""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from hullcap._files import atomic_write
+
+__all__ = ["Camera", "Cameras", "ring"]
+
+_Y_UP_TO_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+"""Maps a y-up world (x right, y up, z towards the viewer) to ours (z up)."""
+
+
+@dataclass(frozen=True)
+class Camera:
+    """One calibrated camera.
+
+    Attributes:
+        name: unique name; the sequence's folders are named after it.
+        width, height: image size in pixels.
+        K: (3, 3) intrinsics, upper-triangular, positive focal lengths.
+        dist: (5,) distortion [k1, k2, p1, p2, k3].
+        R: (3, 3) world → camera rotation; t: (3,) world → camera translation (metres).
+    """
+
+    name: str
+    width: int
+    height: int
+    K: np.ndarray
+    dist: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+
+    def __post_init__(self):
+        where = f"camera {self.name!r}"
+        for attr, shape in (("K", (3, 3)), ("dist", (5,)), ("R", (3, 3)), ("t", (3,))):
+            raw = getattr(self, attr)
+            if attr == "dist":
+                raw = np.concatenate([np.ravel(np.asarray(raw, float)), np.zeros(5)])[:5] if np.size(raw) <= 5 else raw
+            try:
+                value = np.array(raw, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise ValueError(f"{where}: {attr} is not numeric") from None
+            if value.shape != shape or not np.isfinite(value).all():
+                raise ValueError(f"{where}: {attr} must be {shape} finite numbers, got shape {value.shape}")
+            value.setflags(write=False)
+            object.__setattr__(self, attr, value)
+        if not isinstance(self.name, str) or not self.name or "/" in self.name:
+            raise ValueError(f"{where}: name must be a non-empty string without '/'")
+        if not (int(self.width) == self.width > 0 and int(self.height) == self.height > 0):
+            raise ValueError(f"{where}: image size must be positive integers, got {self.width}×{self.height}")
+        object.__setattr__(self, "width", int(self.width))
+        object.__setattr__(self, "height", int(self.height))
+        K = self.K
+        if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
+            raise ValueError(f"{where}: K must be upper-triangular with K[2,2] = 1, got {K.tolist()}")
+        if not (K[0, 0] > 0 and K[1, 1] > 0):
+            raise ValueError(f"{where}: K's focal lengths must be positive, got {K[0, 0]}, {K[1, 1]}")
+        R = self.R
+        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or not np.linalg.det(R) > 0:
+            raise ValueError(f"{where}: R is not a rotation (det = {np.linalg.det(R):.4g}, "
+                             f"|RRᵀ − I| = {np.abs(R @ R.T - np.eye(3)).max():.2g})")
+
+    @property
+    def centre(self) -> np.ndarray:
+        """(3,) the camera's optical centre in the world, −Rᵀt."""
+        return -self.R.T @ self.t
+
+    def to_camera(self, points) -> np.ndarray:
+        """(N, 3) world points in this camera's frame."""
+        return np.asarray(points, dtype=np.float64) @ self.R.T + self.t
+
+    def project(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """World points (N, 3) → ``(pixels (N, 2), depth (N,))``, with distortion.
+        Points behind the camera get a negative depth (their pixels are meaningless)."""
+        x = self.to_camera(points)
+        z = x[:, 2]
+        safe = np.where(np.abs(z) > 1e-12, z, 1e-12)
+        a, b = x[:, 0] / safe, x[:, 1] / safe
+        k1, k2, p1, p2, k3 = self.dist
+        if self.dist.any():
+            r2 = a * a + b * b
+            radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+            a, b = (a * radial + 2 * p1 * a * b + p2 * (r2 + 2 * a * a),
+                    b * radial + p1 * (r2 + 2 * b * b) + 2 * p2 * a * b)
+        K = self.K
+        u = K[0, 0] * a + K[0, 1] * b + K[0, 2]
+        v = K[1, 1] * b + K[1, 2]
+        return np.stack([u, v], 1), z
+
+    def rays(self, pixels) -> tuple[np.ndarray, np.ndarray]:
+        """Back-projection: pixels (N, 2) → ``(origin (3,), unit directions (N, 3))`` in
+        the world, distortion removed."""
+        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 1, 2)
+        norm = cv2.undistortPoints(pixels, self.K, self.dist, None, None, None,
+                                       (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12))
+        d = np.concatenate([norm.reshape(-1, 2), np.ones((len(pixels), 1))], 1) @ self.R
+        return self.centre, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "width": self.width, "height": self.height,
+                "K": self.K.tolist(), "dist": self.dist.tolist(), "R": self.R.tolist(),
+                "t": self.t.tolist()}
+
+
+class Cameras(Sequence[Camera]):
+    """An ordered set of cameras with unique names."""
+
+    def __init__(self, cameras: Sequence[Camera]):
+        self._cameras = tuple(cameras)
+        names = [c.name for c in self._cameras]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"camera names must be unique; repeated: {sorted(dup)}")
+        if not self._cameras:
+            raise ValueError("no cameras")
+
+    def __len__(self) -> int:
+        return len(self._cameras)
+
+    def __getitem__(self, i):
+        if isinstance(i, str):
+            for c in self._cameras:
+                if c.name == i:
+                    return c
+            raise KeyError(f"no camera named {i!r}; cameras are {self.names}")
+        return self._cameras[i]
+
+    def __iter__(self) -> Iterator[Camera]:
+        return iter(self._cameras)
+
+    def __repr__(self) -> str:
+        return f"Cameras({', '.join(self.names)})"
+
+    @property
+    def names(self) -> list[str]:
+        return [c.name for c in self._cameras]
+
+    # -- our format -----------------------------------------------------------------------
+
+    @classmethod
+    def load(cls, path) -> Cameras:
+        """Read ``cameras.json`` (FORMATS.md); errors name the file, camera and field."""
+        path = Path(path)
+        try:
+            spec = json.loads(path.read_text())
+        except OSError as e:
+            raise ValueError(f"{path}: cannot read ({e.strerror})") from e
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{path}: not valid JSON ({e})") from e
+        if spec.get("units", "m") != "m":
+            raise ValueError(f"{path}: units must be 'm', got {spec.get('units')!r}")
+        if not isinstance(spec.get("cameras"), list):
+            raise ValueError(f"{path}: needs a 'cameras' list")
+        cams = []
+        for i, c in enumerate(spec["cameras"]):
+            try:
+                missing = [k for k in ("name", "width", "height", "K", "R", "t") if k not in c]
+                if missing:
+                    raise ValueError(f"camera {c.get('name', f'#{i}')!r}: missing {missing}")
+                cams.append(Camera(c["name"], c["width"], c["height"], c["K"],
+                                   c.get("dist", np.zeros(5)), c["R"], c["t"]))
+            except ValueError as e:
+                raise ValueError(f"{path}: {e}") from None
+        try:
+            return cls(cams)
+        except ValueError as e:
+            raise ValueError(f"{path}: {e}") from None
+
+    def save(self, path) -> None:
+        """Write ``cameras.json`` (atomically)."""
+        doc = {"units": "m", "cameras": [c.to_dict() for c in self._cameras]}
+        atomic_write(Path(path), (json.dumps(doc, indent=1) + "\n").encode())
+
+    # -- other tools' formats -------------------------------------------------------------
+
+    @classmethod
+    def from_easymocap(cls, intri, extri, image_size=None, up: str = "z") -> Cameras:
+        """Import EasyMocap's OpenCV FileStorage pair ``intri.yml`` (``names``, ``K_<cam>``,
+        ``dist_<cam>``, optional ``H_<cam>``/``W_<cam>``) and ``extri.yml`` (``Rot_<cam>``
+        or the Rodrigues ``R_<cam>``, ``T_<cam>``), metres.
+
+        Args:
+            image_size: ``(width, height)`` for files that do not store it.
+            up: the world's up axis in the files, ``"z"`` (ours) or ``"y"``.
+        """
+        fi, fe = _storage(intri), _storage(extri)
+        try:
+            names = _yml_names(fi, intri)
+            cams = []
+            for n in names:
+                K = _yml_mat(fi, f"K_{n}", intri)
+                dist = _yml_mat(fi, f"dist_{n}", intri, required=False)
+                rot = _yml_mat(fe, f"Rot_{n}", extri, required=False)
+                if rot is None:
+                    rot = cv2.Rodrigues(_yml_mat(fe, f"R_{n}", extri).reshape(3, 1))[0]
+                T = _yml_mat(fe, f"T_{n}", extri).reshape(3)
+                w, h = _yml_size(fi, n, image_size, intri)
+                cams.append(_with_up(n, w, h, K, dist, rot, T, up))
+        finally:
+            fi.release()
+            fe.release()
+        return cls(cams)
+
+    @classmethod
+    def from_pose2sim(cls, path, up: str = "z") -> Cameras:
+        """Import a Pose2Sim ``Calib.toml``: a table per camera with ``name``, ``size``
+        (width, height), ``matrix``, ``distortions`` [k1, k2, p1, p2], ``rotation``
+        (Rodrigues, world → camera) and ``translation`` (metres). `up` as in
+        :meth:`from_easymocap`."""
+        path = Path(path)
+        try:
+            doc = tomllib.loads(path.read_text())
+        except OSError as e:
+            raise ValueError(f"{path}: cannot read ({e.strerror})") from e
+        except tomllib.TOMLDecodeError as e:
+            raise ValueError(f"{path}: not valid TOML ({e})") from e
+        cams = []
+        for key, c in doc.items():
+            if key == "metadata" or not isinstance(c, dict):
+                continue
+            try:
+                if c.get("fisheye"):
+                    raise ValueError("fisheye cameras are not supported")
+                R = cv2.Rodrigues(np.asarray(c["rotation"], float).reshape(3, 1))[0]
+                w, h = c["size"]
+                cams.append(_with_up(str(c.get("name", key)), int(w), int(h), c["matrix"],
+                                     c.get("distortions", []), R, c["translation"], up))
+            except (KeyError, TypeError, ValueError) as e:
+                raise ValueError(f"{path}: camera [{key}]: {e!r}") from None
+        return cls(cams)
+
+
+def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
+    if up not in ("z", "y"):
+        raise ValueError(f"up must be 'z' or 'y', got {up!r}")
+    R = np.asarray(R, float)
+    if up == "y":
+        R = R @ _Y_UP_TO_Z_UP.T  # x_cam = R·X_file = R·Mᵀ·X_ours
+    dist = np.ravel(np.asarray(dist if dist is not None else [], float))
+    if dist.size > 5:
+        raise ValueError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] are supported")
+    return Camera(name, w, h, K, np.concatenate([dist, np.zeros(5 - dist.size)]), R, t)
+
+
+def _storage(path) -> cv2.FileStorage:
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path}: no such file")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    if not fs.isOpened():
+        raise ValueError(f"{path}: not an OpenCV FileStorage file")
+    return fs
+
+
+def _yml_names(fs, path) -> list[str]:
+    node = fs.getNode("names")
+    if node.empty():
+        raise ValueError(f"{path}: no 'names' list")
+    return [node.at(i).string() for i in range(node.size())]
+
+
+def _yml_mat(fs, key, path, required=True):
+    node = fs.getNode(key)
+    if node.empty():
+        if required:
+            raise ValueError(f"{path}: no '{key}'")
+        return None
+    m = node.mat()
+    if m is None:
+        raise ValueError(f"{path}: '{key}' is not a matrix")
+    return np.asarray(m, float)
+
+
+def _yml_size(fs, name, image_size, path):
+    h, w = fs.getNode(f"H_{name}"), fs.getNode(f"W_{name}")
+    if not h.empty() and not w.empty():
+        return int(w.real()), int(h.real())
+    if image_size is None:
+        raise ValueError(f"{path}: no H_{name}/W_{name}; pass image_size=(width, height)")
+    return image_size
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, t)`` of a camera at `eye` looking at `target`, image up towards `up`."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    z = target - eye
+    z /= np.linalg.norm(z)
+    x = np.cross(z, np.asarray(up, float))
+    if np.linalg.norm(x) < 1e-9:
+        raise ValueError("look_at: the view direction is parallel to up")
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    return R, -R @ eye
+
+
+def ring(n: int, radius: float = 4.0, height: float = 1.6, target=(0.0, 0.0, 1.0),
+         width: int = 640, height_px: int = 480, fov_deg: float = 50.0, prefix: str = "cam",
+         phase_deg: float = 0.0, height_jitter: float = 0.25) -> Cameras:
+    """N cameras evenly spaced on a ring around the capture volume, looking at `target`.
+
+    Camera heights alternate ±`height_jitter` about `height` so that views differ in
+    elevation too. Horizontal field of view `fov_deg`; no distortion.
+    """
+    if n < 1:
+        raise ValueError(f"a ring needs at least one camera, got {n}")
+    f = 0.5 * width / np.tan(np.radians(fov_deg) / 2)
+    K = [[f, 0, (width - 1) / 2], [0, f, (height_px - 1) / 2], [0, 0, 1]]
+    cams = []
+    for i in range(n):
+        a = np.radians(phase_deg) + 2 * np.pi * i / n
+        z = height + (height_jitter if i % 2 else -height_jitter) * (n > 1)
+        R, t = look_at((radius * np.sin(a), -radius * np.cos(a), z), target)
+        cams.append(Camera(f"{prefix}{i}", width, height_px, K, np.zeros(5), R, t))
+    return Cameras(cams)

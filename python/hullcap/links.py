@@ -1,0 +1,287 @@
+"""The link model (DESIGN.md §1): joint links with revolute DOF, structure links, joint
+sites and the hierarchy of joint groups, read from a JSON file and validated.
+
+The standard model is ``data/body/links.json``; its ``about`` field states the frame and
+the sign conventions. All positions are in the body frame at rest.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["LinkModel", "STANDARD_LINKS"]
+
+DATA = Path(__file__).resolve().parent / "data" / "body"
+STANDARD_LINKS = DATA / "links.json"
+
+
+@dataclass(frozen=True)
+class LinkModel:
+    """A validated link model. Arrays are float64 in the body frame at rest (metres).
+
+    Attributes:
+        names: the L joint links, parents before children; link 0 is the root.
+        parents: (L,) int, −1 for the root.
+        origins: (L, 3) joint centres.
+        segments: (L, 2, 3) each joint link's segment (for skin weights).
+        joints: the joint at each link's origin (``pelvis``, ``waist``, …).
+        dof_names: the joint DOF (``waist_flexion``, …), grouped by link in link order.
+        dof_links: (D,) int, the link each DOF turns.
+        dof_axes: (D, 3) unit axes in the parent's frame at rest.
+        dof_limits: (D, 2) lower and upper limits, radians.
+        structure_names, structure_links (S,) int, structure_segments (S, 2, 3): segments
+            fixed to a joint link that pull skin towards it.
+        joint_names: the output joints, in output order; each is a link's origin or a site.
+        joint_links: (J,) int link of each output joint; joint_points (J, 3) its position.
+        hierarchy: the DOF indices of each joint group, fitted in this order after the
+            root (DESIGN.md §5).
+        source: where it was read from (for error messages).
+    """
+
+    names: tuple[str, ...]
+    parents: np.ndarray
+    origins: np.ndarray
+    segments: np.ndarray
+    joints: tuple[str, ...]
+    dof_names: tuple[str, ...]
+    dof_links: np.ndarray
+    dof_axes: np.ndarray
+    dof_limits: np.ndarray
+    structure_names: tuple[str, ...]
+    structure_links: np.ndarray
+    structure_segments: np.ndarray
+    joint_names: tuple[str, ...]
+    joint_links: np.ndarray
+    joint_points: np.ndarray
+    hierarchy: tuple[tuple[int, ...], ...]
+    source: str = field(default="<memory>", compare=False)
+
+    @classmethod
+    def standard(cls) -> LinkModel:
+        """hullcap's standard 29-DOF link model (``data/body/links.json``)."""
+        return cls.load(STANDARD_LINKS)
+
+    @classmethod
+    def load(cls, path) -> LinkModel:
+        """Read and validate a link model file; `ValueError` names the file and the entry."""
+        path = Path(path)
+        try:
+            spec = json.loads(path.read_text())
+        except OSError as e:
+            raise ValueError(f"{path}: cannot read ({e.strerror})") from e
+        except json.JSONDecodeError as e:
+            raise ValueError(f"{path}: not valid JSON ({e})") from e
+        return cls.from_dict(spec, source=str(path))
+
+    @classmethod
+    def from_dict(cls, spec: dict, source: str = "<memory>") -> LinkModel:
+        """Validate a link model given as the parsed JSON of ``links.json``."""
+        return _parse(spec, source)
+
+    def to_dict(self) -> dict:
+        """The JSON form (``LinkModel.from_dict(m.to_dict()) == m``)."""
+        links = []
+        for j, name in enumerate(self.names):
+            dofs = [
+                {"name": self.dof_names[d], "axis": self.dof_axes[d].tolist(),
+                 "limits": np.degrees(self.dof_limits[d]).tolist()}
+                for d in np.flatnonzero(self.dof_links == j)
+            ]
+            parent = None if self.parents[j] < 0 else self.names[self.parents[j]]
+            links.append({"name": name, "parent": parent, "joint": self.joints[j],
+                          "origin": self.origins[j].tolist(),
+                          "segment": self.segments[j].tolist(), "dofs": dofs})
+        structure = [
+            {"name": n, "parent": self.names[p], "segment": s.tolist()}
+            for n, p, s in zip(self.structure_names, self.structure_links, self.structure_segments)
+        ]
+        link_joint = dict(zip(self.joints, range(len(self.joints))))
+        sites = [
+            {"name": n, "link": self.names[l], "position": p.tolist()}
+            for n, l, p in zip(self.joint_names, self.joint_links, self.joint_points)
+            if n not in link_joint
+        ]
+        hierarchy = [sorted({self.joints[self.dof_links[d]] for d in g}, key=self.joints.index)
+                     for g in self.hierarchy]
+        return {"units": "m", "links": links, "structure_links": structure, "sites": sites,
+                "joint_names": list(self.joint_names), "hierarchy": hierarchy}
+
+    def save(self, path) -> None:
+        """Write the model as JSON (atomically)."""
+        from hullcap._files import atomic_write
+
+        atomic_write(Path(path), (json.dumps(self.to_dict(), indent=1) + "\n").encode())
+
+    @property
+    def n_dofs(self) -> int:
+        return len(self.dof_names)
+
+    def all_segments(self) -> tuple[np.ndarray, list[int]]:
+        """Joint and structure segments together, ``((L + S, 2, 3), bone of each)``: what
+        :func:`hullcap.skin_weights` takes as ``links`` and ``groups``."""
+        segs = np.concatenate([self.segments, self.structure_segments.reshape(-1, 2, 3)])
+        return segs, list(range(len(self.names))) + [int(p) for p in self.structure_links]
+
+    def clamp(self, theta) -> np.ndarray:
+        """`theta` (…, D) clamped into the joint limits."""
+        return np.clip(theta, self.dof_limits[:, 0], self.dof_limits[:, 1])
+
+    def scaled_transforms(self, lengths: dict | None = None, girths: dict | None = None):
+        """Per-link affine maps of the rest body for per-segment proportions.
+
+        Link j's segment is stretched by ``lengths[name]`` along its direction and by
+        ``girths[name]`` across it, about its joint centre; the joint centres of its
+        children move with it. Unnamed links keep scale 1.
+
+        Returns:
+            ``(S, o_old, o_new)``: (L, 3, 3) linear parts, (L, 3) old and new origins; a rest
+            point x bound to link j maps to ``o_new[j] + S[j] @ (x - o_old[j])``.
+        """
+        lengths, girths = dict(lengths or {}), dict(girths or {})
+        for name in list(lengths) + list(girths):
+            if name not in self.names:
+                raise ValueError(f"scaling names unknown link {name!r}; links are {list(self.names)}")
+        for label, table in (("length", lengths), ("girth", girths)):
+            for name, s in table.items():
+                if not (np.isfinite(s) and 0.2 <= s <= 5.0):
+                    raise ValueError(f"{label} scale of {name!r} must be in [0.2, 5], got {s}")
+        n = len(self.names)
+        scale = np.zeros((n, 3, 3))
+        new_origin = self.origins.copy()
+        for j, name in enumerate(self.names):
+            u = self.segments[j, 1] - self.segments[j, 0]
+            u /= np.linalg.norm(u)
+            along = np.outer(u, u)
+            scale[j] = lengths.get(name, 1.0) * along + girths.get(name, 1.0) * (np.eye(3) - along)
+            p = self.parents[j]
+            if p >= 0:
+                new_origin[j] = new_origin[p] + scale[p] @ (self.origins[j] - self.origins[p])
+        return scale, self.origins.copy(), new_origin
+
+    def scaled(self, lengths: dict | None = None, girths: dict | None = None) -> LinkModel:
+        """The same model with per-segment proportions (see :meth:`scaled_transforms`)."""
+        s, o_old, o_new = self.scaled_transforms(lengths, girths)
+
+        def move(points, links):
+            return np.einsum("...ij,...j->...i", s[links], points - o_old[links]) + o_new[links]
+
+        segs = move(self.segments, np.arange(len(self.names))[:, None])
+        struct = move(self.structure_segments, self.structure_links[:, None])
+        return replace(self, origins=o_new, segments=segs, structure_segments=struct,
+                       joint_points=move(self.joint_points, self.joint_links))
+
+
+def _parse(spec: dict, source: str) -> LinkModel:
+    def fail(msg):
+        raise ValueError(f"{source}: {msg}")
+
+    def vec(value, where, shape=(3,)):
+        try:
+            a = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            fail(f"{where} must be numbers, got {value!r}")
+        if a.shape != shape or not np.isfinite(a).all():
+            fail(f"{where} must be {len(shape) == 1 and f'{shape[0]} finite numbers' or f'shape {shape}'}, got {value!r}")
+        return a
+
+    if not isinstance(spec, dict) or not isinstance(spec.get("links"), list) or not spec["links"]:
+        fail("needs a non-empty 'links' list")
+    names, parents, origins, segments, joints = [], [], [], [], []
+    dof_names, dof_links, axes, limits = [], [], [], []
+    index: dict[str, int] = {}
+    for j, link in enumerate(spec["links"]):
+        name = link.get("name")
+        where = f"link {name!r}" if name else f"link #{j}"
+        if not isinstance(name, str) or not name:
+            fail(f"{where} has no name")
+        if name in index:
+            fail(f"{where} is defined twice")
+        parent = link.get("parent")
+        if j == 0:
+            if parent is not None:
+                fail(f"{where}: the first link is the root and must have parent null")
+            parents.append(-1)
+        elif parent is None:
+            fail(f"{where}: only the first link may be the root (parent null)")
+        elif parent not in index:
+            known = parent in {l.get("name") for l in spec["links"]}
+            fail(f"{where}: parent {parent!r} " + ("is defined after it (a cycle, or links out of order: parents come first)" if known else "is not a link"))
+        else:
+            parents.append(index[parent])
+        index[name] = j
+        names.append(name)
+        joints.append(link.get("joint", name))
+        origins.append(vec(link.get("origin"), f"{where}: origin"))
+        segments.append(vec(link.get("segment"), f"{where}: segment", (2, 3)))
+        if np.linalg.norm(segments[-1][1] - segments[-1][0]) < 1e-6:
+            fail(f"{where}: segment has zero length")
+        for d in link.get("dofs", []):
+            dwhere = f"{where}: DOF {d.get('name')!r}"
+            axis = vec(d.get("axis"), f"{dwhere}: axis")
+            if abs(np.linalg.norm(axis) - 1.0) > 1e-6:
+                fail(f"{dwhere}: axis must be a unit vector, got {d.get('axis')!r}")
+            lim = vec(d.get("limits"), f"{dwhere}: limits (degrees)", (2,))
+            if not lim[0] <= lim[1]:
+                fail(f"{dwhere}: limits reversed ({lim[0]} > {lim[1]})")
+            if not (-360 <= lim[0] and lim[1] <= 360):
+                fail(f"{dwhere}: limits must lie within ±360 degrees")
+            if not isinstance(d.get("name"), str) or d["name"] in dof_names:
+                fail(f"{dwhere}: DOF names must be unique strings")
+            dof_names.append(d["name"])
+            dof_links.append(j)
+            axes.append(axis)
+            limits.append(np.radians(lim))
+    if len(set(joints)) != len(joints):
+        fail("two links name the same joint")
+    s_names, s_links, s_segs = [], [], []
+    for s in spec.get("structure_links", []):
+        where = f"structure link {s.get('name')!r}"
+        if s.get("parent") not in index:
+            fail(f"{where}: parent {s.get('parent')!r} is not a link")
+        s_names.append(str(s.get("name")))
+        s_links.append(index[s["parent"]])
+        s_segs.append(vec(s.get("segment"), f"{where}: segment", (2, 3)))
+    points = {jn: (j, origins[j]) for j, jn in enumerate(joints)}
+    for site in spec.get("sites", []):
+        where = f"site {site.get('name')!r}"
+        if site.get("link") not in index:
+            fail(f"{where}: link {site.get('link')!r} is not a link")
+        if site.get("name") in points:
+            fail(f"{where}: name already used by a joint or site")
+        points[site["name"]] = (index[site["link"]], vec(site.get("position"), f"{where}: position"))
+    joint_names = spec.get("joint_names", list(points))
+    for jn in joint_names:
+        if jn not in points:
+            fail(f"joint_names: {jn!r} is neither a link's joint nor a site")
+    hierarchy = []
+    grouped: set[str] = set()
+    for g, group in enumerate(spec.get("hierarchy", [])):
+        dofs = []
+        for jn in group:
+            if jn not in joints:
+                fail(f"hierarchy group {g}: {jn!r} is not a joint")
+            if jn in grouped:
+                fail(f"hierarchy: joint {jn!r} is in two groups")
+            grouped.add(jn)
+            dofs += [d for d, l in enumerate(dof_links) if l == joints.index(jn)]
+        hierarchy.append(tuple(sorted(dofs)))
+    moving = {joints[l] for l in dof_links}
+    if spec.get("hierarchy") and moving - grouped:
+        fail(f"hierarchy leaves joints out: {sorted(moving - grouped)}")
+    return LinkModel(
+        names=tuple(names), parents=np.array(parents), origins=np.array(origins),
+        segments=np.array(segments), joints=tuple(joints), dof_names=tuple(dof_names),
+        dof_links=np.array(dof_links, dtype=np.int64), dof_axes=np.array(axes).reshape(-1, 3),
+        dof_limits=np.array(limits).reshape(-1, 2), structure_names=tuple(s_names),
+        structure_links=np.array(s_links, dtype=np.int64),
+        structure_segments=np.array(s_segs).reshape(-1, 2, 3),
+        joint_names=tuple(joint_names),
+        joint_links=np.array([points[n][0] for n in joint_names], dtype=np.int64),
+        joint_points=np.array([points[n][1] for n in joint_names]).reshape(-1, 3),
+        hierarchy=tuple(hierarchy) if hierarchy else (tuple(range(len(dof_names))),),
+        source=source,
+    )

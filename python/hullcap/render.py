@@ -1,0 +1,47 @@
+"""Drawing meshes as cameras see them: z-buffer (engine), silhouettes and shaded pictures.
+
+The engine rasterises triangles already projected to pixels (:func:`hullcap._engine.
+rasterize`); vertices are projected here with the camera's distortion, so straight edges
+between projected vertices stand in for the slightly curved images of triangle edges.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hullcap._engine import rasterize
+from hullcap.cameras import Camera
+
+__all__ = ["render_depth", "shade"]
+
+SKIN = (0.82, 0.66, 0.55)
+
+
+def render_depth(camera: Camera, vertices, faces, threads: int | None = None):
+    """``(depth (H, W) float32 metres, inf where empty; face (H, W) int32, −1 where
+    empty)`` of the mesh seen by `camera`."""
+    pixels, z = camera.project(vertices)
+    uvz = np.concatenate([pixels, z[:, None]], 1)
+    return rasterize(uvz, faces, camera.width, camera.height, 1e-3, threads)
+
+
+def shade(camera: Camera, vertices, faces, colour=SKIN, background=(1.0, 1.0, 1.0),
+          threads: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A Lambert-shaded picture of the mesh (a light at the camera plus a soft fill), as
+    ``(rgb (H, W, 3) float in [0, 1], face (H, W) int32)``."""
+    vertices = np.asarray(vertices, float)
+    faces = np.asarray(faces)
+    _, face = render_depth(camera, vertices, faces, threads)
+    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    n = np.cross(b - a, c - a)
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    to_camera = camera.centre - (a + b + c) / 3
+    to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
+    key = np.clip(np.einsum("ij,ij->i", n, to_camera), 0, 1)
+    fill = np.clip(n[:, 2], 0, 1)
+    light = 0.25 + 0.6 * key + 0.15 * fill
+    img = np.empty(face.shape + (3,))
+    img[:] = background
+    seen = face >= 0
+    img[seen] = light[face[seen], None] * np.asarray(colour)
+    return img, face
