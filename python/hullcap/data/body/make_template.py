@@ -6,7 +6,7 @@ the floor). The surface is a smooth union of tapered capsules and ellipsoids lai
 the link model, meshed by marching cubes on a 16 mm grid: closed, manifold, outward
 oriented, one piece. Run from the repository root:
 
-    .venv/bin/python data/body/make_template.py
+    .venv/bin/python data/body/make_template.py   (data/body -> python/hullcap/data/body)
 """
 
 from __future__ import annotations

@@ -1,0 +1,200 @@
+"""The visual hull (DESIGN.md §7): coarse-to-fine voxel carving, then marching cubes.
+
+A voxel is carved when, in some view, its whole footprint lies outside the silhouette.
+The footprint of a cube of side h centred at X is inside the disc of radius
+f·(√3/2·h)/z around X's projection, so comparing that radius with the mask's distance
+transform at the projection decides conservatively: outside by more than the radius →
+the voxel is out; inside by more than it in every view → the voxel is in; otherwise it is
+on the boundary and is split in eight. At the target size the voxel's centre decides.
+Views whose image does not contain a point cannot carve it (a point must be in the
+image of `min_views` views to be kept), and a camera whose mask is
+empty while others see the subject is reported and left out.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from scipy import ndimage
+from skimage.measure import marching_cubes
+
+from hullcap.cameras import Cameras
+from hullcap.mesh import Surface
+
+__all__ = ["visual_hull", "capture_volume", "HullReport"]
+
+
+@dataclass
+class HullReport:
+    """How a hull was made: the views skipped and why, voxel counts, stage times (s)."""
+
+    skipped: dict[str, str] = field(default_factory=dict)
+    voxels_tested: int = 0
+    carve_seconds: float = 0.0
+    mesh_seconds: float = 0.0
+
+
+class _View:
+    """One camera's mask as the carving needs it: signed distance to the silhouette edge."""
+
+    def __init__(self, camera, mask):
+        self.camera = camera
+        inside = (mask > 0).astype(np.uint8)
+        # Distance of each pixel to the nearest pixel of the other class, signed: positive
+        # inside the silhouette.
+        d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
+        d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
+        self.signed = np.where(inside > 0, d_in, -d_out).astype(np.float32)
+        self.focal = float(max(camera.K[0, 0], camera.K[1, 1]))
+
+    def lookup(self, points):
+        """(signed distance in pixels at each point's projection, depth); points outside
+        the image or behind the camera get +inf (this view cannot carve them)."""
+        px, z = self.camera.project(points)
+        u = np.rint(px[:, 0]).astype(np.int64)
+        v = np.rint(px[:, 1]).astype(np.int64)
+        h, w = self.signed.shape
+        ok = (z > 1e-6) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
+        d = np.full(len(points), np.inf, np.float32)
+        d[ok] = self.signed[v[ok], u[ok]]
+        return d, np.where(z > 1e-6, z, np.inf)
+
+
+def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
+                report: HullReport | None = None, smooth: float = 0.7,
+                min_views: int = 3) -> Surface:
+    """The visual hull of silhouettes as a closed, outward-oriented surface.
+
+    Args:
+        masks: one (H, W) uint8 mask per camera, in the cameras' order (non-zero = subject).
+        cameras: the calibration.
+        voxel_size: the finest voxel (metres).
+        bounds: ``((x0, y0, z0), (x1, y1, z1))`` capture volume; default: the region every
+            camera sees (:func:`capture_volume`).
+        report: filled with the views skipped, voxel counts and stage times.
+        smooth: Gaussian smoothing (in voxels) of the occupancy before marching cubes; it
+            turns voxel stairs into a smooth surface with useful normals (0 = none).
+        min_views: a voxel is kept only if at least this many views have it in their
+            image (views that do not see a point cannot carve it, so a point that few
+            cameras see is barely constrained).
+
+    Returns:
+        A :class:`~hullcap.mesh.Surface`: vertices (metres), faces, unit outward normals.
+
+    Raises:
+        ValueError: a mask of the wrong shape or count, every mask empty, or a hull that
+            is empty (silhouettes that no point in the volume satisfies).
+    """
+    report = report if report is not None else HullReport()
+    if len(masks) != len(cameras):
+        raise ValueError(f"{len(masks)} masks for {len(cameras)} cameras")
+    if not voxel_size > 0:
+        raise ValueError(f"voxel_size must be positive, got {voxel_size}")
+    views = []
+    for cam, m in zip(cameras, masks):
+        m = np.asarray(m)
+        if m.shape != (cam.height, cam.width):
+            raise ValueError(f"camera {cam.name!r}: mask is {m.shape[::-1]} pixels, the camera {cam.width}×{cam.height}")
+        if not m.any():
+            report.skipped[cam.name] = "empty mask"
+            continue
+        views.append(_View(cam, m))
+    if not views:
+        raise ValueError("every mask is empty: nothing to carve")
+    if report.skipped:
+        warnings.warn(f"visual hull: views left out: {report.skipped}", stacklevel=2)
+    lo, hi = (np.asarray(b, float) for b in (bounds if bounds is not None else capture_volume(cameras)))
+    t0 = time.perf_counter()
+    origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views)
+    report.carve_seconds = time.perf_counter() - t0
+    if not occupancy.any():
+        raise ValueError("the visual hull is empty: the silhouettes do not agree on any point of the volume")
+    t0 = time.perf_counter()
+    surface = _mesh(occupancy, origin, voxel_size, smooth)
+    report.mesh_seconds = time.perf_counter() - t0
+    return surface
+
+
+def _carve(views, lo, hi, h, report, min_views):
+    """``(origin, occupancy)``: a boolean grid of the finest voxels holding the hull, with
+    at least two empty voxels all round, and the world position of its voxel (0, 0, 0)'s
+    corner."""
+    n_fine = np.maximum(np.ceil((hi - lo) / h).astype(int), 1)
+    levels = min(5, max(0, int(np.ceil(np.log2(max(n_fine.max() / 24, 1))))))
+    n0 = np.ceil(n_fine / 2**levels).astype(int)
+    cells = np.stack(np.meshgrid(*[np.arange(n) for n in n0], indexing="ij"), -1).reshape(-1, 3)
+    offsets = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
+    blocks = []  # (first fine index (N, 3), side in fine voxels)
+    for level in range(levels, -1, -1):
+        size = h * 2**level
+        centres = lo + (cells + 0.5) * size
+        report.voxels_tested += len(cells)
+        if level == 0:
+            inside = np.ones(len(cells), bool)
+            seen_by = np.zeros(len(cells), int)
+            for view in views:
+                d, _ = view.lookup(centres)
+                inside &= d >= 0
+                seen_by += np.isfinite(d)
+            inside &= seen_by >= min(min_views, len(views))
+            blocks.append((cells[inside], 1))
+            break
+        radius_world = size * np.sqrt(3) / 2
+        all_in = np.ones(len(cells), bool)
+        out = np.zeros(len(cells), bool)
+        for view in views:
+            d, z = view.lookup(centres)
+            r = view.focal * radius_world / z
+            out |= d < -r
+            all_in &= np.isfinite(d) & (d > r)  # unseen: decided at the finest level
+        blocks.append((cells[all_in & ~out] * 2**level, 2**level))
+        boundary = cells[~all_in & ~out]
+        cells = (boundary[:, None, :] * 2 + offsets).reshape(-1, 3)
+    starts = [b for b, _ in blocks if len(b)]
+    if not starts:
+        return lo, np.zeros((1, 1, 1), bool)
+    first = np.min([b.min(0) for b in starts], 0) - 2
+    last = np.max([b.max(0) + side for b, side in blocks if len(b)], 0) + 2
+    occupancy = np.zeros(last - first, bool)
+    for b, side in blocks:
+        if len(b):
+            r = np.arange(side)
+            within = np.stack(np.meshgrid(r, r, r, indexing="ij"), -1).reshape(-1, 3)
+            idx = ((b - first)[:, None, :] + within).reshape(-1, 3)
+            occupancy[idx[:, 0], idx[:, 1], idx[:, 2]] = True
+    return lo + first * h, occupancy
+
+
+def _mesh(occupancy, origin, h, smooth) -> Surface:
+    field = occupancy.astype(np.float32)
+    if smooth > 0:
+        field = ndimage.gaussian_filter(field, smooth, mode="constant", truncate=3.0)
+    # The field is high inside; with "ascent" scikit-image winds the triangles
+    # counter-clockwise seen from outside and its normals point outwards (tested).
+    verts, faces, normals, _ = marching_cubes(field, 0.5, spacing=(h, h, h), gradient_direction="ascent")
+    vertices = verts + origin + 0.5 * h
+    n = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    return Surface(vertices.astype(np.float64), faces.astype(np.int64), n.astype(np.float64))
+
+
+def capture_volume(cameras: Cameras, floor: float = 0.0, ceiling: float = 2.4, step: float = 0.05):
+    """``(lo, hi)``: the bounding box of the points between `floor` and `ceiling` that
+    every camera sees (sampled every `step` metres over the box the camera centres span)."""
+    centres = np.array([c.centre for c in cameras])
+    span = np.ptp(centres[:, :2], 0).max() / 2 + step
+    mid = centres[:, :2].mean(0)
+    axes = [np.arange(mid[0] - span, mid[0] + span, step), np.arange(mid[1] - span, mid[1] + span, step),
+            np.arange(floor, ceiling + step / 2, step)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    seen = np.ones(len(pts), bool)
+    for cam in cameras:
+        px, z = cam.project(pts)
+        seen &= (z > 0) & (px[:, 0] >= 0) & (px[:, 0] <= cam.width - 1) & (px[:, 1] >= 0) & (px[:, 1] <= cam.height - 1)
+    if not seen.any():
+        raise ValueError("the cameras see no common volume between the floor and the ceiling; pass bounds")
+    p = pts[seen]
+    return p.min(0) - step, p.max(0) + step

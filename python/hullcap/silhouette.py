@@ -1,0 +1,178 @@
+"""Silhouettes by statistical background subtraction (DESIGN.md §6).
+
+The model of Horprasert, Harwood and Davis (1999): each background pixel has an expected
+colour E and a per-channel spread s. A new colour I is compared along and across the line
+through E:
+
+- brightness distortion α = argmin_α ‖(I − αE)/s‖² — how much brighter (α > 1) or darker
+  (α < 1) the pixel is along its expected colour;
+- chromaticity distortion CD = ‖(I − αE)/s‖ — how far it is from that colour line.
+
+Each is normalised by its own spread over the background (measured over several background
+images, and never below what the pixel noise alone gives, so one image is enough). A pixel
+is foreground when its normalised CD is large, or when it is far darker than a shadow or
+brighter than a highlight can be; shadows (darker, same chromaticity) and highlights stay
+background. Small blobs are removed and holes filled afterwards.
+
+OpenCV's MOG2 sits behind the same interface for comparison.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+__all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask"]
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Decision thresholds of the statistical model.
+
+    Attributes:
+        chromaticity: normalised CD above which a pixel is foreground (in units of the
+            background's own CD spread).
+        darkest_shadow: α below which a darker pixel is foreground, not shadow.
+        brightest_highlight: α above which a brighter pixel is foreground.
+        brightness: normalised |α − 1| below which a pixel is plain background; between it
+            and the shadow/highlight bounds a pixel is shadow or highlight (background too).
+    """
+
+    chromaticity: float = 3.0
+    darkest_shadow: float = 0.45
+    brightest_highlight: float = 1.35
+    brightness: float = 6.0
+
+
+class StatisticalBackground:
+    """The Horprasert background model of one camera.
+
+    Args:
+        backgrounds: one or more (H, W, 3) uint8 images of the empty scene.
+        noise_floor: the least per-channel standard deviation assumed (grey levels); with
+            a single background image it is the spread.
+        thresholds: see :class:`Thresholds`.
+        min_blob: connected foreground regions smaller than this many pixels are dropped.
+        max_hole: background regions enclosed by the subject up to this many pixels are
+            filled (``None``: every enclosed hole).
+    """
+
+    def __init__(self, backgrounds: Sequence[np.ndarray] | np.ndarray, noise_floor: float = 2.5,
+                 thresholds: Thresholds = Thresholds(), min_blob: int = 200,
+                 max_hole: int | None = 2000):
+        stack = _stack(backgrounds)
+        self.shape = stack.shape[1:3]
+        self.thresholds = thresholds
+        self.min_blob, self.max_hole = min_blob, max_hole
+        mean = stack.mean(0)
+        spread = stack.std(0) if len(stack) > 1 else np.zeros_like(mean)
+        self._inv_s = (1.0 / np.maximum(spread, noise_floor)).astype(np.float32)
+        es = (mean * self._inv_s).astype(np.float32)
+        self._es = es
+        self._es2 = np.maximum((es * es).sum(-1), 1e-6).astype(np.float32)
+        # Spread of α and CD under the noise alone: var(α) = 1/Σ(E/s)², and CD² is χ² with
+        # two degrees of freedom (three channels, one fitted along E): RMS √2.
+        a = 1.0 / np.sqrt(self._es2)
+        b = np.full(self.shape, np.sqrt(2.0), np.float32)
+        if len(stack) > 1:
+            alphas, cds = zip(*(self._distortions(img) for img in stack))
+            a = np.maximum(a, np.sqrt(np.mean((np.array(alphas) - 1.0) ** 2, 0)))
+            b = np.maximum(b, np.sqrt(np.mean(np.array(cds) ** 2, 0)))
+        self._inv_a, self._inv_b = (1.0 / a).astype(np.float32), (1.0 / b).astype(np.float32)
+
+    def _distortions(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        i_s = image.astype(np.float32) * self._inv_s
+        dot = np.einsum("ijc,ijc->ij", i_s, self._es)
+        alpha = dot / self._es2
+        # ‖I/s − α·E/s‖² = ‖I/s‖² − (I/s·E/s)²/‖E/s‖² at the optimal α.
+        cd2 = np.einsum("ijc,ijc->ij", i_s, i_s) - dot * alpha
+        return alpha, np.sqrt(np.maximum(cd2, 0))
+
+    def classify(self, image: np.ndarray) -> np.ndarray:
+        """Per-pixel class: 0 background, 1 shadow, 2 highlight, 3 foreground (uint8),
+        before any clean-up."""
+        image = _image(image, self.shape)
+        t = self.thresholds
+        alpha, cd = self._distortions(image)
+        cd_n = cd * self._inv_b
+        alpha_n = (alpha - 1.0) * self._inv_a
+        out = np.zeros(self.shape, np.uint8)
+        out[alpha_n < -t.brightness] = 1
+        out[alpha_n > t.brightness] = 2
+        out[(cd_n > t.chromaticity) | (alpha < t.darkest_shadow) | (alpha > t.brightest_highlight)] = 3
+        return out
+
+    def mask(self, image: np.ndarray) -> np.ndarray:
+        """(H, W) uint8 silhouette, 255 = subject, cleaned (see :func:`clean_mask`)."""
+        raw = (self.classify(image) == 3).astype(np.uint8) * 255
+        return clean_mask(raw, self.min_blob, self.max_hole)
+
+
+class Mog2Background:
+    """OpenCV's Gaussian-mixture subtractor (MOG2), trained on the background images and
+    then frozen, with the same clean-up as :class:`StatisticalBackground`."""
+
+    def __init__(self, backgrounds: Sequence[np.ndarray] | np.ndarray, var_threshold: float = 16.0,
+                 min_blob: int = 200, max_hole: int | None = 2000):
+        stack = _stack(backgrounds)
+        self.shape = stack.shape[1:3]
+        self.min_blob, self.max_hole = min_blob, max_hole
+        self._model = cv2.createBackgroundSubtractorMOG2(history=max(len(stack), 2),
+                                                         varThreshold=var_threshold,
+                                                         detectShadows=True)
+        for _ in range(max(1, 10 // len(stack))):
+            for img in stack:
+                self._model.apply(img, learningRate=-1)
+
+    def mask(self, image: np.ndarray) -> np.ndarray:
+        raw = self._model.apply(_image(image, self.shape), learningRate=0)
+        return clean_mask(np.where(raw == 255, 255, 0).astype(np.uint8), self.min_blob, self.max_hole)
+
+
+def background_model(backgrounds, method: str = "statistical", **options):
+    """A background model of one camera: ``"statistical"`` (Horprasert; default) or
+    ``"mog2"``; `options` go to its constructor."""
+    if method == "statistical":
+        return StatisticalBackground(backgrounds, **options)
+    if method == "mog2":
+        return Mog2Background(backgrounds, **options)
+    raise ValueError(f"unknown background subtraction method {method!r} (statistical, mog2)")
+
+
+def clean_mask(mask: np.ndarray, min_blob: int = 200, max_hole: int | None = 2000) -> np.ndarray:
+    """Drop foreground blobs smaller than `min_blob` pixels and fill enclosed background
+    holes up to `max_hole` pixels (all of them if ``None``); 0/255 uint8 in and out."""
+    fg = (np.asarray(mask) > 0).astype(np.uint8)
+    fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(fg, connectivity=8)
+    keep = np.zeros(n, bool)
+    keep[1:] = stats[1:, cv2.CC_STAT_AREA] >= min_blob
+    fg = keep[labels]
+    # Holes: background components that do not touch the border.
+    n, labels, stats, _ = cv2.connectedComponentsWithStats((~fg).astype(np.uint8), connectivity=4)
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    fill = np.ones(n, bool)
+    fill[border] = False
+    fill[0] = False  # label 0 is the foreground itself here
+    if max_hole is not None:
+        fill &= stats[:, cv2.CC_STAT_AREA] <= max_hole
+    return np.where(fg | fill[labels], 255, 0).astype(np.uint8)
+
+
+def _stack(backgrounds) -> np.ndarray:
+    if isinstance(backgrounds, np.ndarray) and backgrounds.ndim == 3:
+        backgrounds = [backgrounds]
+    stack = np.asarray([np.asarray(b) for b in backgrounds])
+    if stack.ndim != 4 or stack.shape[-1] != 3 or len(stack) == 0:
+        raise ValueError(f"background images must be (H, W, 3) colour images, got {stack.shape}")
+    return stack
+
+
+def _image(image, shape) -> np.ndarray:
+    image = np.asarray(image)
+    if image.shape[:2] != tuple(shape) or image.ndim != 3 or image.shape[2] != 3:
+        raise ValueError(f"image of shape {image.shape} does not match the background {tuple(shape) + (3,)}")
+    return image

@@ -1,0 +1,240 @@
+"""Multi-view input: cameras and foreign calibrations, sequences, silhouettes, visual hull."""
+
+import json
+import shutil
+
+import cv2
+import numpy as np
+import pytest
+
+from hullcap import Camera, Cameras
+from hullcap._implicit import capsule_union_mesh, field_mesh
+from hullcap.cameras import ring
+from hullcap.hull import HullReport, visual_hull
+from hullcap.mesh import check_closed
+from hullcap.render import render_depth
+from hullcap.sequence import Sequence
+from hullcap.silhouette import StatisticalBackground, background_model
+from hullcap.synth import synthesize
+
+
+def distorted_camera():
+    base = ring(8)[1]
+    return Camera("dist", 640, 480, base.K, [0.08, -0.04, 0.001, -0.002, 0.01], base.R, base.t)
+
+
+def test_projection_matches_opencv_and_back_projection_inverts_it(rng):
+    cam = distorted_camera()
+    X = rng.uniform(-0.8, 0.8, (200, 3)) + (0, 0, 1)
+    px, z = cam.project(X)
+    ref, _ = cv2.projectPoints(X, cv2.Rodrigues(cam.R)[0], cam.t, cam.K, cam.dist)
+    assert np.abs(ref.reshape(-1, 2) - px).max() < 1e-9
+    origin, d = cam.rays(px)
+    assert np.allclose(origin + d * np.linalg.norm(X - origin, axis=1)[:, None], X, atol=1e-9)
+    assert np.allclose(z, (X - origin) @ cam.R[2])
+
+
+def test_cameras_json_round_trip_and_validation(tmp_path):
+    cams = Cameras(list(ring(4)) + [distorted_camera()])
+    cams.save(tmp_path / "cameras.json")
+    back = Cameras.load(tmp_path / "cameras.json")
+    assert back.names == cams.names
+    for a, b in zip(cams, back):
+        assert np.array_equal(a.K, b.K) and np.array_equal(a.R, b.R) and np.array_equal(a.dist, b.dist)
+    doc = json.loads((tmp_path / "cameras.json").read_text())
+
+    def broken(edit, message):
+        d = json.loads(json.dumps(doc))
+        edit(d["cameras"][2])
+        (tmp_path / "bad.json").write_text(json.dumps(d))
+        with pytest.raises(ValueError, match=message):
+            Cameras.load(tmp_path / "bad.json")
+
+    broken(lambda c: c["K"][1].__setitem__(0, 5.0), r"bad.json: camera 'cam2': K must be upper-triangular")
+    broken(lambda c: c["K"][0].__setitem__(0, -600.0), r"camera 'cam2': K's focal lengths must be positive")
+    broken(lambda c: c.update(R=[[1, 0, 0], [0, 1, 0], [0, 0, -1]]), r"camera 'cam2': R is not a rotation \(det = -1")
+    broken(lambda c: c.update(R=[[2, 0, 0], [0, 1, 0], [0, 0, 1]]), r"camera 'cam2': R is not a rotation")
+    broken(lambda c: c.update(width=0), r"camera 'cam2': image size must be positive")
+    broken(lambda c: c.update(name="cam0"), r"names must be unique; repeated: \['cam0'\]")
+    broken(lambda c: c.pop("t"), r"camera 'cam2': missing \['t'\]")
+    with pytest.raises(ValueError, match="cannot read"):
+        Cameras.load(tmp_path / "none.json")
+
+
+def test_easymocap_and_pose2sim_calibrations_project_like_our_own(tmp_path, rng):
+    cams = Cameras(list(ring(3)) + [distorted_camera()])
+    X = rng.uniform(-0.8, 0.8, (50, 3)) + (0, 0, 1)
+    # EasyMocap: OpenCV FileStorage, Rodrigues rotations, z-up world.
+    fi = cv2.FileStorage(str(tmp_path / "intri.yml"), cv2.FILE_STORAGE_WRITE)
+    fe = cv2.FileStorage(str(tmp_path / "extri.yml"), cv2.FILE_STORAGE_WRITE)
+    fi.write("names", cams.names)
+    fe.write("names", cams.names)
+    for c in cams:
+        fi.write(f"K_{c.name}", c.K)
+        fi.write(f"dist_{c.name}", c.dist.reshape(1, 5))
+        fe.write(f"R_{c.name}", cv2.Rodrigues(c.R)[0])
+        fe.write(f"T_{c.name}", c.t.reshape(3, 1))
+    fi.release()
+    fe.release()
+    easy = Cameras.from_easymocap(tmp_path / "intri.yml", tmp_path / "extri.yml", image_size=(640, 480))
+    # Pose2Sim: TOML, a y-up world (x, y, z)_file = (x, z, −y)_ours.
+    M = np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]])  # ours → file
+    lines = []
+    for c in cams:
+        rvec = cv2.Rodrigues(c.R @ M.T)[0].ravel()
+        lines += [f"[{c.name}]", f'name = "{c.name}"', f"size = [{c.width}.0, {c.height}.0]",
+                  f"matrix = {c.K.tolist()}", f"distortions = {c.dist[:4].tolist()}",
+                  f"rotation = {rvec.tolist()}", f"translation = {c.t.tolist()}", "fisheye = false", ""]
+    lines += ["[metadata]", "adjusted = false", "error = 0.0"]
+    (tmp_path / "Calib.toml").write_text("\n".join(lines))
+    p2s = Cameras.from_pose2sim(tmp_path / "Calib.toml", up="y")
+    for ours, a, b in zip(cams, easy, p2s):
+        ref = ours.project(X)[0]
+        assert np.abs(a.project(X)[0] - ref).max() < 1e-6, a.name
+        dist = ours.dist.copy()
+        dist[4] = 0  # Pose2Sim stores four coefficients
+        ref4 = Camera("x", 640, 480, ours.K, dist, ours.R, ours.t).project(X)[0]
+        assert np.abs(b.project(X)[0] - ref4).max() < 1e-6, b.name
+    with pytest.raises(ValueError, match="no 'names'|no such file"):
+        Cameras.from_easymocap(tmp_path / "missing.yml", tmp_path / "extri.yml")
+
+
+@pytest.fixture(scope="module")
+def sequence(tmp_path_factory):
+    """A small rendered sequence: 4 cameras at 320×240, the first 42 frames of the demo."""
+    out = tmp_path_factory.mktemp("seq") / "demo"
+    cams = ring(4, radius=3.2, width=320, height_px=240, fov_deg=55)
+    return synthesize(out, "demo", cams, subject="short", frames=42, show_progress=False)
+
+
+def test_synthetic_sequence_has_the_layout_of_formats_md(sequence):
+    seq = Sequence(sequence)
+    assert len(seq) == 42 and seq.fps == 30 and len(seq.cameras) == 4
+    assert seq.images(5)[0].shape == (240, 320, 3)
+    joints = np.load(sequence / "truth" / "joints.npz")
+    assert joints["positions"].shape == (42, 21, 3) and joints["names"][0] == "pelvis"
+    pose = np.load(sequence / "truth" / "pose.npz")
+    assert pose["theta"].shape == (42, 29) and pose["root_rotation"].shape == (42, 3, 3)
+    vertices = np.load(sequence / "truth" / "vertices.npy", mmap_mode="r")
+    assert vertices.shape[0] == 42 and vertices.dtype == np.float32
+    # The feet stand on the floor in the calibration pose.
+    assert abs(vertices[0, :, 2].min()) < 1e-3
+
+
+def test_background_subtraction_recovers_silhouettes_and_ignores_shadows(sequence):
+    seq = Sequence(sequence)
+    models = [StatisticalBackground(seq.background(i)) for i in range(4)]
+    ious, shadow_fg = [], []
+    for frame in (0, 15, 30, 41):
+        for i, img in enumerate(seq.images(frame)):
+            truth = cv2.imread(str(sequence / "truth" / "silhouettes" / f"cam{i}" / f"{frame:06d}.png"), 0) > 0
+            mask = models[i].mask(img) > 0
+            ious.append((mask & truth).sum() / (mask | truth).sum())
+            # Shadow: pixels off the subject clearly darker than the empty scene.
+            diff = seq.background(i).astype(int).sum(-1) - img.astype(int).sum(-1)
+            shadow = (diff > 60) & ~cv2.dilate(truth.astype(np.uint8), np.ones((5, 5))).astype(bool)
+            if shadow.sum() > 20:
+                shadow_fg.append(mask[shadow].mean())
+    assert np.mean(ious) >= 0.97 and min(ious) > 0.9, ious
+    assert shadow_fg and max(shadow_fg) < 0.02, shadow_fg
+    with pytest.raises(ValueError, match="unknown background subtraction method"):
+        background_model(seq.background(0), "magic")
+    with pytest.raises(ValueError, match="does not match the background"):
+        models[0].mask(np.zeros((10, 10, 3), np.uint8))
+
+
+def _masks(cameras, vertices, faces):
+    return [(render_depth(c, vertices, faces)[1] >= 0).astype(np.uint8) * 255 for c in cameras]
+
+
+def test_hull_of_a_sphere_is_tight_where_the_views_constrain_it():
+    cams = ring(8, radius=3.0)
+    centre, radius, voxel = np.array([0.1, -0.05, 1.0]), 0.3, 0.01
+    v, f = capsule_union_mesh([(centre, centre, radius)], 0.005)
+    hull = visual_hull(_masks(cams, v, f), cams, voxel_size=voxel)
+    topo = check_closed(hull.vertices, hull.faces)
+    assert topo["closed"] and topo["components"] == 1 and topo["volume"] > 0
+    d = hull.vertices - centre
+    r = np.linalg.norm(d, axis=1)
+    signed = r - radius
+    assert signed.min() > -voxel  # never inside the true shape by more than a voxel
+    # Where a camera looks straight at the sphere's rim, the silhouettes pin the hull.
+    rim = np.zeros(len(r), bool)
+    for c in cams:
+        view = centre - c.centre
+        view /= np.linalg.norm(view)
+        rim |= np.abs((d / r[:, None]) @ view) < 0.05
+    assert np.abs(signed[rim]).max() < voxel
+    assert signed.max() < 0.1  # the unconstrained bulges between views stay bounded
+    # Normals point outwards.
+    assert np.mean(np.einsum("ij,ij->i", hull.normals, d / r[:, None]) > 0.5) > 0.99
+
+
+def test_hull_of_a_box_contains_it_and_hugs_its_faces():
+    cams = ring(8, radius=3.0)
+    lo, hi, voxel = np.array([-0.2, -0.15, 0.6]), np.array([0.25, 0.15, 1.5]), 0.01
+    centre, half = (lo + hi) / 2, (hi - lo) / 2
+
+    def box(p):
+        q = np.abs(p - centre) - half
+        return np.linalg.norm(np.maximum(q, 0), axis=-1) + np.minimum(q.max(-1), 0)
+
+    v, f = field_mesh(box, lo - 0.02, hi + 0.02, 0.004)
+    hull = visual_hull(_masks(cams, v, f), cams, voxel_size=voxel)
+    sd = box(hull.vertices)
+    assert sd.min() > -voxel
+    # Face centres of the vertical sides are seen edge-on by no camera; the top and bottom
+    # rims, and the vertical edges, are: the hull is within a voxel at the vertical edges.
+    corners = np.array([[x, y] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])])
+    near_edge = np.min(np.linalg.norm(hull.vertices[:, None, :2] - corners, axis=2), 1) < 0.03
+    mid_height = np.abs(hull.vertices[:, 2] - centre[2]) < 0.3
+    assert np.abs(sd[near_edge & mid_height]).max() < 3 * voxel
+    q = np.abs(hull.vertices - centre) - half
+    face_dir = np.argmax(q, axis=1)
+    outward = np.zeros_like(hull.vertices)
+    outward[np.arange(len(q)), face_dir] = np.sign((hull.vertices - centre)[np.arange(len(q)), face_dir])
+    assert np.mean(np.einsum("ij,ij->i", hull.normals, outward) > 0.3) > 0.95
+
+
+def test_hull_skips_blank_views_and_refuses_bad_masks():
+    cams = ring(8, radius=3.0)
+    v, f = capsule_union_mesh([((0, 0, 1), (0, 0, 1.2), 0.25)], 0.01)
+    masks = _masks(cams, v, f)
+    full = visual_hull(masks, cams)
+    masks[3] = np.zeros_like(masks[3])
+    report = HullReport()
+    with pytest.warns(UserWarning, match="cam3"):
+        partial = visual_hull(masks, cams, report=report)
+    assert report.skipped == {"cam3": "empty mask"}
+    assert abs(check_closed(partial.vertices, partial.faces)["volume"]
+               - check_closed(full.vertices, full.faces)["volume"]) < 0.1 * check_closed(full.vertices, full.faces)["volume"]
+    with pytest.raises(ValueError, match="every mask is empty"):
+        visual_hull([np.zeros_like(m) for m in masks], cams)
+    with pytest.raises(ValueError, match="camera 'cam1': mask is"):
+        visual_hull([masks[0], masks[1][:, :100]] + masks[2:], cams)
+    with pytest.raises(ValueError, match="7 masks for 8 cameras"):
+        visual_hull(masks[:7], cams)
+
+
+def test_sequence_errors_name_the_file(sequence, tmp_path):
+    bad = tmp_path / "bad"
+    shutil.copytree(sequence, bad, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    seq = Sequence(bad)
+    frame = bad / "frames" / "cam1" / "000003.png"
+    cv2.imwrite(str(frame), np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(ValueError, match=r"cam1/000003.png: image is 10×10, camera 'cam1' is calibrated for 320×240"):
+        seq.images(3)
+    frame.write_bytes(b"not a png")
+    with pytest.raises(ValueError, match=r"cam1/000003.png: not a readable image"):
+        seq.images(3)
+    frame.unlink()
+    with pytest.raises(ValueError, match=r"cam1/000003.png: missing"):
+        seq.images(3)
+    with pytest.raises(IndexError, match="frame 42 out of range"):
+        seq.images(42)
+    shutil.rmtree(bad / "frames" / "cam2")
+    with pytest.raises(ValueError, match="camera 'cam2' has no frames/cam2/"):
+        Sequence(bad)
+    (bad / "cameras.json").unlink()
+    with pytest.raises(ValueError, match="missing cameras.json"):
+        Sequence(bad)
