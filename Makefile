@@ -24,6 +24,8 @@ test: $(ENGINE) no-rayon
 
 bench: $(ENGINE)
 	$(PY) benchmarks/bench_kdtree.py
+	$(PY) benchmarks/bench_skin.py
+	$(PY) benchmarks/bench_hull.py
 
 wheel: $(PY)
 	$(VENV)/bin/maturin build --release --out dist

@@ -83,7 +83,7 @@ def test_torso_beside_a_hanging_arm_keeps_off_the_arm_link():
 
 def test_link_distances_are_shortest_paths(legs):
     v, f = legs
-    x, direct, t_vis, t_dij = _engine.link_distances(v, f, LEG_LINKS)
+    x, direct, t_vis, t_graph, t_dij = _engine.link_distances(v, f, LEG_LINKS)
     assert x.shape == (3, len(v)) and direct.shape == (len(v), 3)
     assert t_vis > 0 and t_dij > 0
     # Never longer than a visible straight arc, never shorter than the straight line.

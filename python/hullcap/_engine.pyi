@@ -114,10 +114,10 @@ def link_distances(
     faces: npt.ArrayLike,
     links: npt.ArrayLike,
     threads: int | None = None,
-) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], float, float]:
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], float, float, float]:
     """The geodesic distances behind ``skin_weights``: (L, V) x_ij, (V, L) direct arc
     lengths (inf where the arc crosses the mesh), and the seconds spent on the
-    segment-mesh tests and on Dijkstra."""
+    segment-mesh tests, on building the edge graph and on Dijkstra (all links)."""
 
 class Rig:
     """A rigged mesh: link tree, rest mesh (body frame) and K-sparse skin weights."""

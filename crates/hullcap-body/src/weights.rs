@@ -11,6 +11,7 @@
 use crate::rig::SkinWeights;
 use crate::{BodyError, TriangleBvh};
 use std::cmp::Ordering;
+use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 use std::time::Instant;
 
@@ -47,7 +48,9 @@ pub struct LinkDistances {
     pub direct: Vec<f64>,
     /// Seconds spent on the segment–mesh tests.
     pub visibility_seconds: f64,
-    /// Seconds spent in Dijkstra.
+    /// Seconds spent building the mesh's edge graph (once, shared by every link).
+    pub graph_seconds: f64,
+    /// Seconds spent in Dijkstra (all links).
     pub dijkstra_seconds: f64,
 }
 
@@ -129,6 +132,8 @@ pub fn link_distances(
 
     let started = Instant::now();
     let graph = EdgeGraph::new(vertices, faces);
+    let graph_seconds = started.elapsed().as_secs_f64();
+    let started = Instant::now();
     let mut distances = vec![f64::INFINITY; nl * nv];
     let mut per_link: Vec<&mut [f64]> = distances.chunks_mut(nv).collect();
     hullcap_core::for_each_chunk_mut(&mut per_link, threads, 1, |offset, chunk| {
@@ -141,6 +146,7 @@ pub fn link_distances(
         distances,
         direct,
         visibility_seconds,
+        graph_seconds,
         dijkstra_seconds,
     })
 }
@@ -234,7 +240,8 @@ pub fn skin_weights(
 /// The mesh's edges as an adjacency list (CSR) with Euclidean lengths.
 struct EdgeGraph {
     start: Vec<usize>,
-    neighbour: Vec<(u32, f64)>,
+    target: Vec<u32>,
+    length: Vec<f64>,
 }
 
 impl EdgeGraph {
@@ -254,53 +261,63 @@ impl EdgeGraph {
         for i in 1..start.len() {
             start[i] += start[i - 1];
         }
-        let neighbour = edges
+        let target = edges.iter().map(|&(_, b)| b).collect();
+        let length = edges
             .iter()
-            .map(|&(a, b)| (b, distance(&vertices[a as usize], &vertices[b as usize])))
+            .map(|&(a, b)| distance(&vertices[a as usize], &vertices[b as usize]))
             .collect();
-        EdgeGraph { start, neighbour }
+        EdgeGraph {
+            start,
+            target,
+            length,
+        }
     }
 
     /// Shortest distances from a source node joined to vertex i by an arc of length
     /// `arc(i)` (+∞ = no arc), written into `dist`.
+    ///
+    /// The source's arcs are sorted once and consumed in order beside a binary heap that
+    /// holds only the distances improved through mesh edges: the heap stays small even
+    /// when the link sees most of the mesh directly. Keys are the bit patterns of the
+    /// (non-negative) distances, which order as the distances do.
     fn dijkstra(&self, arc: impl Fn(usize) -> f64, dist: &mut [f64]) {
-        let mut heap: BinaryHeap<Entry> = (0..dist.len())
-            .filter_map(|i| {
-                dist[i] = arc(i);
-                dist[i].is_finite().then_some(Entry(dist[i], i as u32))
-            })
-            .collect();
-        while let Some(Entry(d, i)) = heap.pop() {
-            if d > dist[i as usize] {
+        let mut seeds: Vec<(u64, u32)> = Vec::new();
+        for (i, d) in dist.iter_mut().enumerate() {
+            *d = arc(i);
+            if d.is_finite() {
+                seeds.push((d.to_bits(), i as u32));
+            }
+        }
+        seeds.sort_unstable();
+        let mut heap: BinaryHeap<Reverse<(u64, u32)>> = BinaryHeap::new();
+        let mut next_seed = 0;
+        loop {
+            let from_heap = match (heap.peek(), seeds.get(next_seed)) {
+                (Some(Reverse(h)), Some(s)) => h < s,
+                (Some(_), None) => true,
+                (None, Some(_)) => false,
+                (None, None) => break,
+            };
+            let (bits, i) = if from_heap {
+                heap.pop().map_or((0, 0), |Reverse(e)| e)
+            } else {
+                next_seed += 1;
+                seeds[next_seed - 1]
+            };
+            let i = i as usize;
+            let d = f64::from_bits(bits);
+            if d > dist[i] {
                 continue;
             }
-            let i = i as usize;
-            for &(j, len) in &self.neighbour[self.start[i]..self.start[i + 1]] {
+            let range = self.start[i]..self.start[i + 1];
+            for (&j, &len) in self.target[range.clone()].iter().zip(&self.length[range]) {
                 let nd = d + len;
                 if nd < dist[j as usize] {
                     dist[j as usize] = nd;
-                    heap.push(Entry(nd, j));
+                    heap.push(Reverse((nd.to_bits(), j)));
                 }
             }
         }
-    }
-}
-
-/// A heap entry ordered so that the smallest distance pops first.
-#[derive(PartialEq)]
-struct Entry(f64, u32);
-
-impl Eq for Entry {}
-
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> Ordering {
-        other.0.total_cmp(&self.0).then(other.1.cmp(&self.1))
     }
 }
 

@@ -91,7 +91,7 @@ pub(crate) fn link_distances<'py>(
     faces: &Bound<'py, PyAny>,
     links: &Bound<'py, PyAny>,
     threads: Option<i64>,
-) -> PyResult<(F64Array<'py>, F64Array<'py>, f64, f64)> {
+) -> PyResult<(F64Array<'py>, F64Array<'py>, f64, f64, f64)> {
     let vertices = rows3(vertices, "vertices")?;
     let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
     let links = float_rows::<6>(links, "links", &[2, 3])?;
@@ -110,6 +110,7 @@ pub(crate) fn link_distances<'py>(
         flat_to_numpy(py, found.distances, &[nl, nv])?,
         flat_to_numpy(py, found.direct, &[nv, nl])?,
         found.visibility_seconds,
+        found.graph_seconds,
         found.dijkstra_seconds,
     ))
 }
