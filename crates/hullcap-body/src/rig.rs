@@ -166,6 +166,26 @@ impl Rig {
         })
     }
 
+    /// Vertex i and its unit normal posed in the world: the skinned vertex under the root
+    /// motion, and the rest normal turned by the weight-blended link rotation.
+    #[inline]
+    pub fn posed_vertex(
+        &self,
+        pose: &SkeletonPose,
+        root: &RootPose,
+        i: usize,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let k = self.weights.k;
+        let mut blended = Matrix3::zeros();
+        for c in 0..k {
+            let j = self.weights.index[i * k + c] as usize;
+            blended += self.weights.weight[i * k + c] * pose.rotation[j];
+        }
+        let v = root.rotation * self.skin_vertex(pose, i) + root.translation;
+        let n = root.rotation * (blended * self.rest_normals[i]);
+        (v, n / n.norm().max(f64::MIN_POSITIVE))
+    }
+
     /// Poses every vertex and normal for joint angles `theta` and the root motion.
     pub fn pose(
         &self,
@@ -178,22 +198,13 @@ impl Rig {
         let nv = self.n_vertices();
         let mut out = vec![([0.0; 3], [0.0; 3]); nv];
         let threads = hullcap_core::resolve_threads(threads);
-        let k = self.weights.k;
         hullcap_core::for_each_chunk_mut(
             &mut out,
             threads,
             MIN_VERTICES_PER_THREAD,
             |offset, chunk| {
                 for (r, slot) in chunk.iter_mut().enumerate() {
-                    let i = offset + r;
-                    let mut blended = Matrix3::zeros();
-                    for c in 0..k {
-                        let j = self.weights.index[i * k + c] as usize;
-                        blended += self.weights.weight[i * k + c] * skeleton.rotation[j];
-                    }
-                    let v = root.rotation * self.skin_vertex(&skeleton, i) + root.translation;
-                    let n = root.rotation * (blended * self.rest_normals[i]);
-                    let n = n / n.norm().max(f64::MIN_POSITIVE);
+                    let (v, n) = self.posed_vertex(&skeleton, root, offset + r);
                     *slot = (v.into(), n.into());
                 }
             },

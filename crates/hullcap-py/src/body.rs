@@ -119,10 +119,10 @@ pub(crate) fn link_distances<'py>(
 /// `hullcap.BodyModel`).
 #[pyclass(module = "hullcap._engine", name = "Rig", frozen)]
 pub(crate) struct Rig {
-    rig: EngineRig,
+    pub(crate) rig: EngineRig,
 }
 
-fn root_pose(
+pub(crate) fn root_pose(
     rotation: Option<&Bound<'_, PyAny>>,
     translation: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<RootPose> {

@@ -32,7 +32,10 @@ pub(crate) fn rasterize<'py>(
 ) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, Bound<'py, PyArrayDyn<i32>>)> {
     let vertices = rows3(vertices, "vertices")?;
     let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
-    let (w, h) = (arrays::count(width, "width", 1)?, arrays::count(height, "height", 1)?);
+    let (w, h) = (
+        arrays::count(width, "width", 1)?,
+        arrays::count(height, "height", 1)?,
+    );
     let threads = arrays::threads(threads)?;
     let v = vertices.rows();
     let out = detached(py, || {

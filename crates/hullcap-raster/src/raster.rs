@@ -102,10 +102,16 @@ pub fn rasterize(
 }
 
 fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -> Option<Screen> {
-    if p.iter().any(|c| !(c[2] > near) || !c[0].is_finite() || !c[1].is_finite()) {
+    // Written so that a NaN depth also skips the triangle.
+    if p.iter().any(|c| {
+        c[2].partial_cmp(&near) != Some(std::cmp::Ordering::Greater)
+            || !c[0].is_finite()
+            || !c[1].is_finite()
+    }) {
         return None;
     }
-    let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+    let area =
+        (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
     if area == 0.0 || !area.is_finite() {
         return None;
     }
@@ -163,13 +169,13 @@ fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, 
                 let (xf, yf) = (f64::from(x), f64::from(y));
                 let mut bary = [0.0; 3];
                 let mut inside = true;
-                for k in 0..3 {
+                for (k, slot) in bary.iter_mut().enumerate() {
                     let e = s.a[k] * xf + s.b[k] * yf + s.c[k];
                     if e < 0.0 || (e == 0.0 && !s.owns_edge[k]) {
                         inside = false;
                         break;
                     }
-                    bary[k] = e;
+                    *slot = e;
                 }
                 if !inside {
                     continue;
@@ -215,7 +221,12 @@ mod tests {
         // must be owned by exactly one triangle, so the fan covers the same pixels as
         // the square it tiles.
         let c = [4.0, 4.0, 1.0];
-        let ring = [[1.0, 1.0, 1.0], [7.0, 1.0, 1.0], [7.0, 7.0, 1.0], [1.0, 7.0, 1.0]];
+        let ring = [
+            [1.0, 1.0, 1.0],
+            [7.0, 1.0, 1.0],
+            [7.0, 7.0, 1.0],
+            [1.0, 7.0, 1.0],
+        ];
         let mut v = vec![c];
         v.extend(ring);
         let f = vec![[0, 1, 2], [0, 2, 3], [0, 3, 4], [0, 4, 1]];
@@ -223,13 +234,16 @@ mod tests {
         let mut counts = vec![0; 81];
         for tri in &f {
             let one = rasterize(&v, &[*tri], 9, 9, 0.01, Some(1)).unwrap();
-            for p in 0..81 {
-                if one.face[p] == 0 {
-                    counts[p] += 1;
+            for (count, &face) in counts.iter_mut().zip(&one.face) {
+                if face == 0 {
+                    *count += 1;
                 }
             }
         }
-        assert!(counts.iter().all(|&c| c <= 1), "a pixel drawn twice: {counts:?}");
+        assert!(
+            counts.iter().all(|&c| c <= 1),
+            "a pixel drawn twice: {counts:?}"
+        );
         let covered = fan.face.iter().filter(|&&f| f >= 0).count();
         assert_eq!(covered, counts.iter().sum::<usize>());
     }
@@ -258,9 +272,16 @@ mod tests {
         assert_eq!(one.face, many.face);
         assert!(matches!(
             rasterize(&v, &[[0, 1, 9]], 8, 8, 0.01, None),
-            Err(RasterError::BadIndex { face: 0, vertex: 9, .. })
+            Err(RasterError::BadIndex {
+                face: 0,
+                vertex: 9,
+                ..
+            })
         ));
-        assert!(matches!(rasterize(&v, &f, 0, 8, 0.01, None), Err(RasterError::BadSize { .. })));
+        assert!(matches!(
+            rasterize(&v, &f, 0, 8, 0.01, None),
+            Err(RasterError::BadSize { .. })
+        ));
         let behind = vec![[1.0, 1.0, -1.0], [5.0, 1.0, 2.0], [1.0, 5.0, 2.0]];
         let out = rasterize(&behind, &[[0, 1, 2]], 8, 8, 0.01, None).unwrap();
         assert!(out.face.iter().all(|&f| f == -1));

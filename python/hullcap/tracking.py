@@ -1,0 +1,265 @@
+"""Tracking a whole sequence (DESIGN.md §9): frame by frame, streamed, resumable.
+
+For each frame: silhouettes (given, or by background subtraction) → visual hull → a fit
+from the pose predicted by constant velocity → a check of the fit (inlier fraction and
+mean residual); a bad fit is retried from the previous pose and from perturbed starts, and
+a frame that still fails is marked failed while tracking goes on. The first frame builds
+the subject's model (:mod:`hullcap.subject`) unless one is given.
+
+Outputs (FORMATS.md): ``joints.csv``, ``pose.npz``, ``model/``; all written atomically.
+A checkpoint (``.checkpoint.npz``) written every few frames lets an interrupted run
+resume where it stopped.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hullcap._files import atomic_write
+from hullcap.body import BodyModel
+from hullcap.fitting import FitResult, PoseParameters, fit, make_target
+from hullcap.hull import capture_volume, visual_hull
+from hullcap.progress import progress
+from hullcap.sequence import Sequence
+from hullcap.silhouette import background_model
+from hullcap.subject import build_subject, place_model
+
+__all__ = ["Tracker", "TrackingResult", "write_outputs"]
+
+CHECKPOINT = ".checkpoint.npz"
+
+
+@dataclass
+class TrackingResult:
+    """Per-frame results of a run (F frames); failed frames hold NaN."""
+
+    model: BodyModel
+    fps: float
+    theta: np.ndarray
+    root_rotation: np.ndarray
+    root_translation: np.ndarray
+    joints: np.ndarray
+    failed: np.ndarray
+    energy: np.ndarray
+    inlier_fraction: np.ndarray
+    mean_residual: np.ndarray
+    iterations: np.ndarray
+    seconds: dict = field(default_factory=dict)
+    """Seconds spent per stage: silhouettes, hull, fit, subject."""
+
+    @classmethod
+    def empty(cls, model: BodyModel, n: int, fps: float) -> TrackingResult:
+        nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
+        return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
+                   np.ones(n, bool), nan(), nan(), nan(), np.zeros(n, np.int64))
+
+    def record(self, frame: int, result: FitResult) -> None:
+        p = result.pose
+        self.theta[frame], self.root_rotation[frame], self.root_translation[frame] = p.theta, p.root_rotation, p.root_translation
+        self.joints[frame] = self.model.pose(p.theta, p.root_rotation, p.root_translation).joints
+        self.failed[frame] = False
+        self.energy[frame], self.inlier_fraction[frame] = result.energy, result.inlier_fraction
+        self.mean_residual[frame], self.iterations[frame] = result.mean_residual, result.iterations
+
+    def arrays(self) -> dict:
+        return {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
+                "theta": self.theta, "dof_names": np.array(self.model.dof_names),
+                "joint_names": np.array(self.model.joint_names), "failed": self.failed,
+                "energy": self.energy, "inlier_fraction": self.inlier_fraction,
+                "mean_residual": self.mean_residual, "iterations": self.iterations,
+                "joints": self.joints, "fps": self.fps}
+
+
+@dataclass
+class Tracker:
+    """Tracks a sequence folder.
+
+    Attributes:
+        sequence: the input (:class:`~hullcap.sequence.Sequence`).
+        model: the subject's model; ``None`` = build it from the first frame.
+        voxel_size: hull resolution (metres).
+        background: ``"statistical"`` or ``"mog2"``, used when the sequence has no
+            silhouettes (or `use_silhouettes` is False).
+        use_silhouettes: use the sequence's silhouettes when it has them.
+        min_inlier_fraction, max_mean_residual: a fit passes when at least this fraction
+            of model points lies within 2 cm of the hull and the mean pair distance is
+            at most this (metres).
+        retries: perturbed restarts tried after a failed fit.
+        fit_options: passed to :func:`hullcap.fitting.fit`.
+    """
+
+    sequence: Sequence
+    model: BodyModel | None = None
+    voxel_size: float = 0.01
+    background: str = "statistical"
+    use_silhouettes: bool = True
+    min_inlier_fraction: float = 0.75
+    max_mean_residual: float = 0.02
+    retries: int = 4
+    fit_options: dict = field(default_factory=dict)
+    seed: int = 0
+
+    def __post_init__(self):
+        self._bounds = capture_volume(self.sequence.cameras)
+        self._backgrounds = None
+        self.seconds: dict = defaultdict(float)
+
+    # -- one frame ---------------------------------------------------------------------
+
+    def masks(self, frame: int) -> list[np.ndarray]:
+        """The silhouettes of `frame`, given or by background subtraction."""
+        t0 = time.perf_counter()
+        seq = self.sequence
+        if self.use_silhouettes and seq.has_silhouettes:
+            masks = seq.masks(frame)
+        else:
+            if self._backgrounds is None:
+                self._backgrounds = [background_model(seq.background(i), self.background)
+                                     for i in range(len(seq.cameras))]
+            masks = [m.mask(img) for m, img in zip(self._backgrounds, seq.images(frame))]
+        self.seconds["silhouettes"] += time.perf_counter() - t0
+        return masks
+
+    def hull(self, frame: int):
+        masks = self.masks(frame)
+        t0 = time.perf_counter()
+        import warnings
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            surface = visual_hull(masks, self.sequence.cameras, self.voxel_size, self._bounds)
+        self.seconds["hull"] += time.perf_counter() - t0
+        return surface
+
+    def passes(self, result: FitResult) -> bool:
+        return (result.inlier_fraction >= self.min_inlier_fraction
+                and result.mean_residual <= self.max_mean_residual)
+
+    def fit_frame(self, model: BodyModel, surface, starts: list[PoseParameters]) -> tuple[FitResult, bool]:
+        """Fit from each start in turn until one passes; then perturbed restarts around
+        the first. Returns the best fit and whether it passed."""
+        t0 = time.perf_counter()
+        target = make_target(surface)
+        best = None
+        rng = np.random.default_rng(self.seed)
+        candidates = list(starts)
+        tried = 0
+        while candidates or tried < len(starts) + self.retries:
+            if not candidates:
+                base = starts[0]
+                lim = model.link_model.dof_limits
+                yaw = rng.normal(0, 0.15)
+                c, s = np.cos(yaw), np.sin(yaw)
+                turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+                candidates.append(PoseParameters(
+                    np.clip(base.theta + rng.normal(0, 0.15, model.n_dofs), lim[:, 0], lim[:, 1]),
+                    turn @ base.root_rotation, base.root_translation + rng.normal(0, 0.03, 3)))
+            start = candidates.pop(0)
+            tried += 1
+            result = fit(model, target, start, **self.fit_options)
+            if best is None or (self.passes(result), -result.energy) > (self.passes(best), -best.energy):
+                best = result
+            if self.passes(result):
+                break
+        self.seconds["fit"] += time.perf_counter() - t0
+        return best, self.passes(best)
+
+    # -- the sequence ------------------------------------------------------------------
+
+    def run(self, out, resume: bool = True, show_progress: bool = True, frames: int | None = None) -> TrackingResult:
+        """Track the sequence into folder `out` (see the module documentation)."""
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        n = len(self.sequence) if frames is None else min(frames, len(self.sequence))
+        result, start = self._resume(out, n) if resume else (None, 0)
+        if result is None:
+            model = self.model
+            t0 = time.perf_counter()
+            first = self.hull(0)
+            if model is None:
+                subject = build_subject(first)
+                model, first_fit = subject.model, subject.fit
+            else:
+                first_fit = place_model(model, first)
+            self.seconds["subject"] += time.perf_counter() - t0
+            model.save(out / "model")
+            result = TrackingResult.empty(model, n, self.sequence.fps)
+            result.record(0, first_fit)
+            result.failed[0] = not self.passes(first_fit)
+            start = 1
+        model = result.model
+        bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress)
+        bar.update(start) if hasattr(bar, "update") else None
+        for frame in bar:
+            try:
+                surface = self.hull(frame)
+            except ValueError:
+                result.failed[frame] = True
+                continue
+            fitted, ok = self.fit_frame(model, surface, self._starts(result, frame))
+            result.record(frame, fitted)
+            result.failed[frame] = not ok
+            if frame % 10 == 0:
+                self._checkpoint(out, result, frame + 1)
+        result.seconds = dict(self.seconds)
+        write_outputs(out, result)
+        (out / CHECKPOINT).unlink(missing_ok=True)
+        return result
+
+    def _starts(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
+        """Constant-velocity prediction from the last two good frames, then the last good
+        pose itself."""
+        good = [f for f in range(frame - 1, -1, -1) if not result.failed[f]][:2]
+        if not good:
+            good = [0]
+        last = PoseParameters(result.theta[good[0]], result.root_rotation[good[0]], result.root_translation[good[0]])
+        if len(good) < 2 or good[0] - good[1] != 1 or good[0] != frame - 1:
+            return [last]
+        a, b = good[1], good[0]
+        lim = result.model.link_model.dof_limits
+        theta = np.clip(2 * result.theta[b] - result.theta[a], lim[:, 0], lim[:, 1])
+        turn = result.root_rotation[b] @ result.root_rotation[a].T
+        u, _, vt = np.linalg.svd(turn @ result.root_rotation[b])
+        predicted = PoseParameters(theta, u @ vt, 2 * result.root_translation[b] - result.root_translation[a])
+        return [predicted, last]
+
+    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
+        buf = io.BytesIO()
+        np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays())
+        atomic_write(out / CHECKPOINT, buf.getvalue())
+
+    def _resume(self, out: Path, n: int):
+        path = out / CHECKPOINT
+        if not path.is_file() or not (out / "model").is_dir():
+            return None, 0
+        with np.load(path) as z:
+            if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
+                return None, 0
+            model = BodyModel.load(out / "model")
+            result = TrackingResult(model, float(z["fps"]), z["theta"], z["root_rotation"], z["root_translation"],
+                                    z["joints"], z["failed"], z["energy"], z["inlier_fraction"],
+                                    z["mean_residual"], z["iterations"])
+            return result, int(z["next_frame"])
+
+
+def write_outputs(out, result: TrackingResult) -> None:
+    """Write ``joints.csv`` and ``pose.npz`` (FORMATS.md), each atomically."""
+    out = Path(out)
+    lines = ["frame,time,joint,x,y,z"]
+    names = result.model.joint_names
+    for f in np.flatnonzero(~result.failed):
+        t = f / result.fps
+        for name, (x, y, z) in zip(names, result.joints[f]):
+            lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f}")
+    atomic_write(out / "joints.csv", ("\n".join(lines) + "\n").encode())
+    buf = io.BytesIO()
+    arrays = result.arrays()
+    arrays.pop("joints")
+    np.savez(buf, **arrays)
+    atomic_write(out / "pose.npz", buf.getvalue())
