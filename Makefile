@@ -16,7 +16,7 @@ ENGINE := $(VENV)/.engine-built
 .PHONY: demo test bench wheel engine no-rayon clean
 
 demo: $(ENGINE)
-	$(PY) benchmarks/bench_kdtree.py --quick
+	$(VENV)/bin/hullcap demo
 
 test: $(ENGINE) no-rayon
 	cargo test

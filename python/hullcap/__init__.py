@@ -8,19 +8,32 @@ Rust engine, ``hullcap._engine``; everything exported here validates its input a
 from hullcap._engine import NormalKDTree, __version__, skin_weights
 from hullcap.body import BodyModel, Pose
 from hullcap.cameras import Camera, Cameras
+from hullcap.fitting import FitResult, PoseParameters, fit
+from hullcap.hull import visual_hull
 from hullcap.links import LinkModel
 from hullcap.mesh import Surface, read_mesh, write_mesh
+from hullcap.sequence import Sequence
+from hullcap.subject import build_subject
+from hullcap.tracking import Tracker, TrackingResult
 
 __all__ = [
     "BodyModel",
     "Camera",
     "Cameras",
+    "FitResult",
     "LinkModel",
     "NormalKDTree",
     "Pose",
+    "PoseParameters",
+    "Sequence",
     "Surface",
+    "Tracker",
+    "TrackingResult",
     "__version__",
+    "build_subject",
+    "fit",
     "read_mesh",
     "skin_weights",
+    "visual_hull",
     "write_mesh",
 ]

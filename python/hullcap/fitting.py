@@ -65,7 +65,7 @@ def make_target(surface: Surface, normal_weight: float | None = DEFAULT_NORMAL_W
     return _engine.Target(surface.vertices, surface.normals, normal_weight)
 
 
-def default_model_points(model: BodyModel, count: int = 3000) -> np.ndarray:
+def default_model_points(model: BodyModel, count: int = 1500) -> np.ndarray:
     """About `count` model vertices spread over the mesh (every n-th vertex)."""
     n = len(model.vertices)
     return np.arange(0, n, max(1, n // count), dtype=np.int64)
@@ -84,7 +84,7 @@ def fit(model: BodyModel, target, initial: PoseParameters, *, model_points=None,
             target made by :func:`make_target`.
         initial: the starting pose (e.g. the previous frame's, or a prediction).
         model_points: indices of the model vertices that seek partners (default: about
-            3 000 spread over the mesh).
+            1 500 spread over the mesh).
         residual: ``"point_to_point"`` (the paper) or ``"point_to_plane"``.
         solver: ``"lm"`` (Levenberg–Marquardt) or ``"cg"`` (the paper's conjugate gradients).
         hierarchical: root, then the joint groups of the link model from the torso

@@ -80,9 +80,13 @@ class Sequence:
 
     def masks(self, frame: int) -> list[np.ndarray]:
         """The given silhouettes of frame `frame` (0/255 uint8), in camera order."""
+        return [self.mask(frame, c.name) for c in self.cameras]
+
+    def mask(self, frame: int, camera) -> np.ndarray:
+        """The given silhouette of `camera` (name or index) in frame `frame`."""
         self._check_frame(frame)
-        return [self._read(self.path / "silhouettes" / c.name / f"{frame:06d}.png", c, colour=False)
-                for c in self.cameras]
+        cam = self.cameras[camera]
+        return self._read(self.path / "silhouettes" / cam.name / f"{frame:06d}.png", cam, colour=False)
 
     def _check_frame(self, frame):
         if not 0 <= frame < self.n_frames:

@@ -1,0 +1,49 @@
+"""Accuracy of a tracking run against a synthetic sequence's ground truth."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Accuracy", "accuracy"]
+
+
+@dataclass(frozen=True)
+class Accuracy:
+    """Joint position errors (mm) per joint and overall, joint-angle error (degrees)
+    and frames lost."""
+
+    joint_names: tuple
+    per_joint_mm: np.ndarray
+    mean_mm: float
+    max_mm: float
+    angle_deg: float
+    frames: int
+    failed: int
+
+    def table(self) -> str:
+        rows = [f"{'joint':<12} {'mean error (mm)':>16}"]
+        rows += [f"{n:<12} {e:16.1f}" for n, e in zip(self.joint_names, self.per_joint_mm)]
+        rows.append(f"{'all joints':<12} {self.mean_mm:16.1f}   (worst single {self.max_mm:.1f} mm)")
+        rows.append(f"joint angles: mean error {self.angle_deg:.2f}°; frames lost: {self.failed} of {self.frames}")
+        return "\n".join(rows)
+
+
+def accuracy(result, sequence_path) -> Accuracy:
+    """Compare a :class:`~hullcap.tracking.TrackingResult` (or a run folder's
+    ``pose.npz`` joints) with ``truth/`` of the sequence it tracked."""
+    truth_dir = Path(sequence_path) / "truth"
+    with np.load(truth_dir / "joints.npz") as z:
+        names = tuple(str(n) for n in z["names"])
+        true_joints = z["positions"]
+    with np.load(truth_dir / "pose.npz") as z:
+        true_theta = z["theta"]
+    n = len(result.failed)
+    ok = ~result.failed
+    index = [names.index(j) for j in result.model.joint_names]
+    err = np.linalg.norm(result.joints[ok] - true_joints[:n][ok][:, index], axis=2) * 1000
+    angle = np.degrees(np.abs(result.theta[ok] - true_theta[:n][ok])).mean() if ok.any() else np.nan
+    return Accuracy(result.model.joint_names, err.mean(0), float(err.mean()), float(err.max()),
+                    float(angle), n, int(result.failed.sum()))

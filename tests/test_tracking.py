@@ -1,0 +1,118 @@
+"""Fitting and tracking against ground truth; the command line."""
+
+import shutil
+
+import cv2
+import numpy as np
+import pytest
+
+from hullcap import BodyModel, PoseParameters, Surface, Tracker, fit
+from hullcap.cameras import ring
+from hullcap.cli import main
+from hullcap.evaluate import accuracy
+from hullcap.sequence import Sequence
+from hullcap.synth import synthesize
+
+
+def turn(yaw):
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
+
+
+@pytest.fixture(scope="module")
+def model():
+    return BodyModel.template()
+
+
+@pytest.mark.parametrize("options", [{}, {"residual": "point_to_plane"}])
+def test_a_perturbed_pose_is_recovered_from_the_exact_mesh(model, options):
+    rng = np.random.default_rng(7)
+    lim = model.link_model.dof_limits
+    theta = np.clip(rng.normal(0, 0.3, 29), lim[:, 0], lim[:, 1])
+    truth = PoseParameters(theta, turn(0.6), np.array([0.3, -0.2, 0.95]))
+    posed = model.pose(truth.theta, truth.root_rotation, truth.root_translation)
+    start = PoseParameters(np.clip(theta + rng.normal(0, 0.1, 29), lim[:, 0], lim[:, 1]),
+                           turn(0.68), truth.root_translation + (0.03, -0.02, 0.02))
+    result = fit(model, Surface(posed.vertices, model.faces, posed.normals), start, **options)
+    got = model.pose(result.pose.theta, result.pose.root_rotation, result.pose.root_translation)
+    assert np.linalg.norm(got.joints - posed.joints, axis=1).max() < 0.002
+    assert result.inlier_fraction > 0.99 and result.mean_residual < 0.002
+    with pytest.raises(ValueError, match="initial.theta must have 29"):
+        fit(model, Surface(posed.vertices, model.faces, posed.normals), PoseParameters(np.zeros(3)))
+
+
+@pytest.fixture(scope="module")
+def short_sequence(tmp_path_factory):
+    out = tmp_path_factory.mktemp("track") / "seq"
+    cams = ring(6, radius=3.2, width=400, height_px=300, fov_deg=55)
+    return synthesize(out, "demo", cams, subject="short", frames=20, silhouettes=True, show_progress=False)
+
+
+def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
+    seq = Sequence(short_sequence)
+    result = Tracker(seq).run(tmp_path / "out", show_progress=False)
+    acc = accuracy(result, short_sequence)
+    assert acc.failed == 0
+    assert acc.mean_mm < 25, acc.table()
+    # The outputs of FORMATS.md.
+    header = (tmp_path / "out" / "joints.csv").read_text().splitlines()
+    assert header[0] == "frame,time,joint,x,y,z" and len(header) == 1 + 20 * 21
+    pose = np.load(tmp_path / "out" / "pose.npz")
+    assert pose["theta"].shape == (20, 29) and not pose["failed"].any()
+    assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 29
+
+
+def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, tmp_path):
+    seq_dir = tmp_path / "seq"
+    shutil.copytree(short_sequence, seq_dir)
+    blank = seq_dir / "silhouettes" / "cam2" / "000005.png"
+    cv2.imwrite(str(blank), np.zeros((300, 400), np.uint8))
+    (seq_dir / "silhouettes" / "cam4" / "000007.png").unlink()
+    tracker = Tracker(Sequence(seq_dir))
+    result = tracker.run(tmp_path / "out", show_progress=False, frames=10)
+    assert not result.failed.any()
+    assert any("frame 5: camera 'cam2' left out" in p for p in tracker.problems)
+    assert any("frame 7" in p and "000007.png: missing" in p for p in tracker.problems)
+    assert accuracy(result, seq_dir).mean_mm < 30
+
+
+def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, monkeypatch):
+    seq = Sequence(short_sequence)
+    out = tmp_path / "out"
+    tracker = Tracker(seq)
+    calls = {"n": 0}
+    real = Tracker.fit_frame
+
+    def interrupting(self, *args):
+        calls["n"] += 1
+        if calls["n"] == 13:
+            raise KeyboardInterrupt
+        return real(self, *args)
+
+    monkeypatch.setattr(Tracker, "fit_frame", interrupting)
+    with pytest.raises(KeyboardInterrupt):
+        tracker.run(out, show_progress=False, frames=16)
+    assert (out / ".checkpoint.npz").is_file() and not (out / "pose.npz").exists()
+    monkeypatch.setattr(Tracker, "fit_frame", real)
+    fresh = Tracker(seq)
+    resumed = fresh.run(out, show_progress=False, frames=16)
+    assert fresh.seconds.get("subject", 0) == 0  # the model came from the checkpoint's run
+    assert not resumed.failed.any() and not (out / ".checkpoint.npz").exists()
+    straight = Tracker(seq).run(tmp_path / "straight", show_progress=False, frames=16)
+    assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
+
+
+def test_command_line_errors_name_the_problem(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    assert main(["track", str(tmp_path / "empty"), "--out", str(tmp_path / "o")]) == 2
+    assert "missing cameras.json" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["synth", str(tmp_path / "s"), "--motion", "moonwalk"])
+
+
+def test_command_line_synth_then_track(tmp_path, capsys):
+    seq = tmp_path / "seq"
+    assert main(["synth", str(seq), "--frames", "3", "--cameras", "6", "--motion", "squat"]) == 0
+    assert Sequence(seq).n_frames == 3
+    assert main(["track", str(seq), "--out", str(tmp_path / "out")]) == 0
+    assert "3 frames tracked, 0 lost" in capsys.readouterr().out
