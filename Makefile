@@ -26,6 +26,9 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_kdtree.py
 	$(PY) benchmarks/bench_skin.py
 	$(PY) benchmarks/bench_hull.py
+	$(PY) benchmarks/bench_tracking.py
+	$(VENV)/bin/pip install --quiet 'open3d>=0.18'   # needs Debian's libusb-1.0-0
+	$(PY) benchmarks/bench_icp.py
 
 wheel: $(PY)
 	$(VENV)/bin/maturin build --release --out dist
