@@ -1,7 +1,8 @@
 # The README's two commands are `make demo` and `make test`; both set everything up.
 #   make demo    build the engine (release) into .venv and run the demo
 #   make test    the same set-up, then cargo test + pytest
-#   make bench   every benchmark, with its reference peers (SciPy, pykdtree)
+#   make bench   every benchmark, with its reference peers (SciPy, pykdtree, Open3D)
+#   make paper   the paper's evaluation: plots and docs/paper.md
 #   make wheel   a release wheel in dist/
 
 PYTHON ?= python3
@@ -13,7 +14,7 @@ ENGINE_SOURCES := Cargo.toml pyproject.toml $(wildcard Cargo.lock) \
                   $(shell find crates -name '*.rs' -o -name Cargo.toml)
 ENGINE := $(VENV)/.engine-built
 
-.PHONY: demo test bench wheel engine no-rayon clean
+.PHONY: demo test bench paper wheel engine no-rayon clean
 
 demo: $(ENGINE)
 	$(VENV)/bin/hullcap demo
@@ -29,6 +30,10 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_tracking.py
 	$(VENV)/bin/pip install --quiet 'open3d>=0.18'   # needs Debian's libusb-1.0-0
 	$(PY) benchmarks/bench_icp.py
+
+# The paper's evaluation (issue 6): plots and docs/paper.md, seeded.
+paper: $(ENGINE)
+	$(PY) benchmarks/paper.py
 
 wheel: $(PY)
 	$(VENV)/bin/maturin build --release --out dist
