@@ -116,3 +116,22 @@ def test_command_line_synth_then_track(tmp_path, capsys):
     assert Sequence(seq).n_frames == 3
     assert main(["track", str(seq), "--out", str(tmp_path / "out")]) == 0
     assert "3 frames tracked, 0 lost" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("rest_mesh", ["template", "hull"])
+def test_subject_model_is_built_from_the_first_hull(short_sequence, rest_mesh):
+    from hullcap import build_subject, visual_hull
+
+    seq = Sequence(short_sequence)
+    hull = visual_hull(seq.masks(0), seq.cameras)
+    subject = build_subject(hull, rest_mesh=rest_mesh)
+    truth = np.load(short_sequence / "truth" / "joints.npz")["positions"][0]
+    joints = subject.model.pose(subject.pose.theta, subject.pose.root_rotation, subject.pose.root_translation).joints
+    assert np.linalg.norm(joints - truth, axis=1).mean() < 0.025
+    if rest_mesh == "hull":
+        assert len(subject.model.vertices) == len(hull.vertices)
+        assert subject.fit.mean_residual < 0.005
+    else:
+        assert len(subject.model.vertices) == len(BodyModel.template().vertices)
+    with pytest.raises(ValueError, match="rest_mesh must be"):
+        build_subject(hull, rest_mesh="clay")
