@@ -70,6 +70,20 @@ def _demo(args) -> int:
     return 0
 
 
+def _export(args) -> int:
+    from hullcap.export.bvh import write_bvh
+    from hullcap.tracking import load_result, write_joints_csv
+
+    result = load_result(args.out)
+    target = Path(args.to) if args.to else Path(args.out) / {"bvh": "motion.bvh", "csv": "joints.csv"}[args.format]
+    if args.format == "bvh":
+        write_bvh(target, result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
+    else:
+        write_joints_csv(target, result)
+    print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from hullcap.motions import MOTIONS
     from hullcap.synth import SUBJECTS
@@ -116,6 +130,13 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--out", help="keep the sequence and results here (default: a temporary folder)")
     d.set_defaults(run=_demo)
+
+    e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
+        "Write a finished run's motion (its pose.npz and model/) in another format."))
+    e.add_argument("out", help="the results folder of a `hullcap track` run")
+    e.add_argument("--format", choices=["bvh", "csv"], required=True, help="bvh: motion.bvh; csv: joints.csv")
+    e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
+    e.set_defaults(run=_export)
     return ap
 
 

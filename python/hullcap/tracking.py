@@ -6,7 +6,8 @@ mean residual); a bad fit is retried from the previous pose and from perturbed s
 a frame that still fails is marked failed while tracking goes on. The first frame builds
 the subject's model (:mod:`hullcap.subject`) unless one is given.
 
-Outputs (FORMATS.md): ``joints.csv``, ``pose.npz``, ``model/``; all written atomically.
+Outputs (FORMATS.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``; all
+written atomically.
 A checkpoint (``.checkpoint.npz``) written every few frames lets an interrupted run
 resume where it stopped.
 """
@@ -24,6 +25,7 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
+from hullcap.export.bvh import write_bvh
 from hullcap.fitting import FitResult, PoseParameters, fit, make_target
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
@@ -31,7 +33,7 @@ from hullcap.sequence import Sequence
 from hullcap.silhouette import background_model
 from hullcap.subject import build_subject, place_model
 
-__all__ = ["Tracker", "TrackingResult", "write_outputs"]
+__all__ = ["Tracker", "TrackingResult", "write_outputs", "load_result"]
 
 CHECKPOINT = ".checkpoint.npz"
 
@@ -262,17 +264,47 @@ class Tracker:
 
 
 def write_outputs(out, result: TrackingResult) -> None:
-    """Write ``joints.csv`` and ``pose.npz`` (FORMATS.md), each atomically."""
+    """Write ``joints.csv``, ``pose.npz`` (FORMATS.md) and ``motion.bvh``, each atomically."""
     out = Path(out)
+    write_joints_csv(out / "joints.csv", result)
+    buf = io.BytesIO()
+    arrays = result.arrays()
+    arrays.pop("joints")
+    np.savez(buf, **arrays)
+    atomic_write(out / "pose.npz", buf.getvalue())
+    if (~result.failed).any():
+        write_bvh(out / "motion.bvh", result.model, result.root_translation, result.root_rotation,
+                  result.theta, result.fps)
+
+
+def write_joints_csv(path, result: TrackingResult) -> None:
+    """``joints.csv``: one row per fitted frame and joint (FORMATS.md)."""
     lines = ["frame,time,joint,x,y,z"]
     names = result.model.joint_names
     for f in np.flatnonzero(~result.failed):
         t = f / result.fps
         for name, (x, y, z) in zip(names, result.joints[f]):
             lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f}")
-    atomic_write(out / "joints.csv", ("\n".join(lines) + "\n").encode())
-    buf = io.BytesIO()
-    arrays = result.arrays()
-    arrays.pop("joints")
-    np.savez(buf, **arrays)
-    atomic_write(out / "pose.npz", buf.getvalue())
+    atomic_write(Path(path), ("\n".join(lines) + "\n").encode())
+
+
+def load_result(out) -> TrackingResult:
+    """A finished run's results from its folder (``pose.npz`` and ``model/``)."""
+    out = Path(out)
+    model = BodyModel.load(out / "model")
+    path = out / "pose.npz"
+    try:
+        with np.load(path) as z:
+            a = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{path}: not a readable pose.npz ({e})") from e
+    missing = {"theta", "root_rotation", "root_translation", "failed", "fps"} - a.keys()
+    if missing:
+        raise ValueError(f"{path}: missing {sorted(missing)}")
+    result = TrackingResult(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
+                            np.full((len(a["theta"]), len(model.joint_names), 3), np.nan), a["failed"],
+                            a.get("energy"), a.get("inlier_fraction"), a.get("mean_residual"), a.get("iterations"))
+    for f in np.flatnonzero(~result.failed):
+        result.joints[f] = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f],
+                                      clamp=False).joints
+    return result
