@@ -66,6 +66,17 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert main(["track", str(seq), "--out", str(tmp_path / "out")]) == 0
     original = (tmp_path / "out" / "joints.csv").read_text()
     assert (tmp_path / "out" / "motion.bvh").is_file()
+    # Overlay videos, one per camera, complete; the report picture.
+    import cv2
+
+    for cam in range(6):
+        video = cv2.VideoCapture(str(tmp_path / "out" / "overlay" / f"cam{cam}.mp4"))
+        assert video.isOpened() and int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == 3
+        ok, frame = video.read()
+        assert ok and frame.shape == (480, 640, 3)
+    assert not list((tmp_path / "out" / "overlay").glob(".*part*"))
+    report = cv2.imread(str(tmp_path / "out" / "report.png"))
+    assert report is not None and report.shape[0] > 200
     assert main(["export", str(tmp_path / "out"), "--format", "csv", "--to", str(tmp_path / "again.csv")]) == 0
     again = (tmp_path / "again.csv").read_text().splitlines()
     for a, b in zip(original.splitlines()[1:], again[1:]):

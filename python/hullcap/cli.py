@@ -21,8 +21,15 @@ def _track(args) -> int:
     tracker = Tracker(seq, model=model, voxel_size=args.voxel, background=args.background,
                       use_silhouettes=not args.ignore_silhouettes)
     result = tracker.run(args.out, resume=not args.restart, frames=args.frames)
+    from hullcap.export import write_overlays, write_report
+
+    write_report(Path(args.out) / "report.png", result)
+    made = "joints.csv, pose.npz, model/, motion.bvh, report.png"
+    if not args.no_overlay:
+        write_overlays(args.out, seq, result)
+        made += ", overlay/"
     lost = int(result.failed.sum())
-    print(f"{args.out}: {len(result.failed)} frames tracked, {lost} lost; joints.csv, pose.npz, model/")
+    print(f"{args.out}: {len(result.failed)} frames tracked, {lost} lost; {made}")
     return 0
 
 
@@ -104,6 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--ignore-silhouettes", action="store_true", help="subtract the background even if silhouettes/ exist")
     t.add_argument("--frames", type=int, help="track only the first N frames")
     t.add_argument("--restart", action="store_true", help="start over instead of resuming")
+    t.add_argument("--no-overlay", action="store_true", help="skip the overlay videos (overlay/<cam>.mp4)")
     t.set_defaults(run=_track)
 
     s = sub.add_parser("synth", help="render a synthetic sequence with ground truth", description=(

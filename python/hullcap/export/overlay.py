@@ -1,0 +1,129 @@
+"""Pictures of a run: the fitted model over each camera's frames (``overlay/<cam>.mp4``)
+and the fit statistics over time (``report.png``)."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from hullcap.progress import progress
+from hullcap.render import render_depth
+
+__all__ = ["write_overlays", "write_report", "BONES"]
+
+BONES = [("pelvis", "waist"), ("waist", "chest"), ("chest", "neck"), ("neck", "head"),
+         ("chest", "l_clavicle"), ("l_clavicle", "l_shoulder"), ("l_shoulder", "l_elbow"), ("l_elbow", "l_wrist"),
+         ("chest", "r_clavicle"), ("r_clavicle", "r_shoulder"), ("r_shoulder", "r_elbow"), ("r_elbow", "r_wrist"),
+         ("pelvis", "l_hip"), ("l_hip", "l_knee"), ("l_knee", "l_ankle"), ("l_ankle", "l_toe"),
+         ("pelvis", "r_hip"), ("r_hip", "r_knee"), ("r_knee", "r_ankle"), ("r_ankle", "r_toe")]
+"""Pairs of canonical joints drawn as the skeleton."""
+
+OUTLINE = (40, 220, 255)  # BGR
+LEFT, RIGHT, MIDDLE = (60, 200, 60), (60, 60, 230), (230, 160, 40)
+
+
+def draw_overlay(image, camera, vertices, faces, joints, joint_names, failed: bool = False) -> np.ndarray:
+    """`image` (BGR) with the fitted mesh's outline, a light tint over it and the skeleton."""
+    out = image.copy()
+    if failed:
+        cv2.putText(out, "fit failed", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (0, 0, 255), 2, cv2.LINE_AA)
+        return out
+    _, face = render_depth(camera, vertices, faces)
+    mask = (face >= 0).astype(np.uint8)
+    out[mask > 0] = (0.7 * out[mask > 0] + 0.3 * np.array(OUTLINE)).astype(np.uint8)
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    cv2.drawContours(out, contours, -1, OUTLINE, 1, cv2.LINE_AA)
+    px, z = camera.project(joints)
+    index = {n: i for i, n in enumerate(joint_names)}
+    for a, b in BONES:
+        i, j = index[a], index[b]
+        if z[i] > 0 and z[j] > 0:
+            colour = LEFT if b.startswith("l_") else RIGHT if b.startswith("r_") else MIDDLE
+            p, q = (tuple(int(round(c)) for c in px[k]) for k in (i, j))
+            cv2.line(out, p, q, colour, 2, cv2.LINE_AA)
+    for k in range(len(joints)):
+        if z[k] > 0:
+            cv2.circle(out, tuple(int(round(c)) for c in px[k]), 3, (255, 255, 255), -1, cv2.LINE_AA)
+    return out
+
+
+def write_overlays(out, sequence, result, show_progress: bool = True, still: int | None = None) -> list[Path]:
+    """``OUT/overlay/<cam>.mp4`` for every camera: the fitted model over its frames.
+    Each video is written to a temporary file and moved into place when complete.
+    `still`: also save that frame of every camera as ``overlay/<cam>_<frame>.png``."""
+    folder = Path(out) / "overlay"
+    folder.mkdir(parents=True, exist_ok=True)
+    model = result.model
+    faces = model.faces
+    n = len(result.failed)
+    writers, temps = [], []
+    for cam in sequence.cameras:
+        tmp = tempfile.NamedTemporaryFile(dir=folder, prefix=f".{cam.name}.", suffix=".part.mp4", delete=False)
+        tmp.close()
+        w = cv2.VideoWriter(tmp.name, cv2.VideoWriter_fourcc(*"mp4v"), result.fps, (cam.width, cam.height))
+        if not w.isOpened():
+            raise OSError(f"{folder}: cannot write mp4 video for camera {cam.name!r}")
+        writers.append(w)
+        temps.append(Path(tmp.name))
+    try:
+        for f in progress(range(n), total=n, desc="overlay", enable=show_progress):
+            images = sequence.images(f)
+            ok = not result.failed[f]
+            if ok:
+                pose = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f], clamp=False)
+            for cam, img, w in zip(sequence.cameras, images, writers):
+                drawn = draw_overlay(img, cam, pose.vertices if ok else None, faces,
+                                     pose.joints if ok else None, model.joint_names, failed=not ok)
+                w.write(drawn)
+                if still == f:
+                    cv2.imwrite(str(folder / f"{cam.name}_{f:06d}.png"), drawn)
+    finally:
+        for w in writers:
+            w.release()
+    paths = []
+    for cam, tmp in zip(sequence.cameras, temps):
+        final = folder / f"{cam.name}.mp4"
+        tmp.replace(final)
+        paths.append(final)
+    return paths
+
+
+def write_report(path, result, truth_joints=None) -> None:
+    """``report.png``: mean residual, inlier fraction and (with `truth_joints`, F × J × 3)
+    the joint error per body region over time; failed frames marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = np.arange(len(result.failed)) / result.fps
+    rows = 3 if truth_joints is not None else 2
+    fig, ax = plt.subplots(rows, 1, figsize=(9, 2.4 * rows), sharex=True)
+    ax[0].plot(t, result.mean_residual * 1000, lw=1.2)
+    ax[0].set(ylabel="mean residual (mm)", title="Fit statistics per frame")
+    ax[1].plot(t, result.inlier_fraction * 100, lw=1.2, color="tab:green")
+    ax[1].set(ylabel="inliers (%)")
+    if truth_joints is not None:
+        names = result.model.joint_names
+        err = np.linalg.norm(result.joints - truth_joints[: len(t)], axis=2) * 1000
+        groups = {"torso and head": ("pelvis", "waist", "chest", "neck", "head"),
+                  "arms": tuple(n for n in names if any(k in n for k in ("clavicle", "shoulder", "elbow", "wrist"))),
+                  "legs": tuple(n for n in names if any(k in n for k in ("hip", "knee", "ankle", "toe")))}
+        for label, members in groups.items():
+            idx = [names.index(m) for m in members]
+            ax[2].plot(t, err[:, idx].mean(1), lw=1.2, label=label)
+        ax[2].set(ylabel="joint error (mm)")
+        ax[2].legend(fontsize=8, ncol=3)
+    for a in ax:
+        a.grid(alpha=0.3)
+        for f in np.flatnonzero(result.failed):
+            a.axvspan(t[f] - 0.5 / result.fps, t[f] + 0.5 / result.fps, color="red", alpha=0.2)
+    ax[-1].set(xlabel="time (s)")
+    fig.tight_layout()
+    from hullcap._files import atomic_write
+
+    atomic_write(Path(path), lambda p: fig.savefig(p, dpi=100))
+    plt.close(fig)
