@@ -65,7 +65,9 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert main(["synth", str(seq), "--frames", "3", "--cameras", "6", "--subject", "short"]) == 0
     assert main(["track", str(seq), "--out", str(tmp_path / "out")]) == 0
     original = (tmp_path / "out" / "joints.csv").read_text()
-    assert (tmp_path / "out" / "motion.bvh").is_file()
+    assert (tmp_path / "out" / "motion.bvh").is_file() and (tmp_path / "out" / "model.glb").is_file()
+    assert main(["export", str(tmp_path / "out"), "--format", "glb", "--to", str(tmp_path / "m.glb")]) == 0
+    assert (tmp_path / "m.glb").read_bytes()[:4] == b"glTF"
     # Overlay videos, one per camera, complete; the report picture.
     import cv2
 
@@ -88,3 +90,74 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert mocap.nframes == 3
     assert main(["export", str(tmp_path / "nothing"), "--format", "bvh"]) == 2
     assert "not a body model folder" in capsys.readouterr().err
+
+
+def _accessor(gltf, blob, i):
+    """An accessor's data, decoded by the reader's own tables."""
+    acc = gltf.accessors[i]
+    view = gltf.bufferViews[acc.bufferView]
+    dtype = {5126: np.float32, 5123: np.uint16, 5125: np.uint32}[acc.componentType]
+    width = {"SCALAR": 1, "VEC3": 3, "VEC4": 4, "MAT4": 16}[acc.type]
+    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+    data = np.frombuffer(blob, dtype, acc.count * width, start).reshape(acc.count, width)
+    assert view.byteOffset % 4 == 0 and start + data.nbytes <= view.byteOffset + view.byteLength
+    return data
+
+
+def _matrix(translation=None, rotation=None):
+    M = np.eye(4)
+    if rotation is not None:
+        x, y, z, w = rotation
+        M[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    if translation is not None:
+        M[:3, 3] = translation
+    return M
+
+
+def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path):
+    pygltflib = pytest.importorskip("pygltflib", reason="the independent glTF reader (pip install pygltflib)")
+    from hullcap.export.gltf import Z_UP_TO_Y_UP, write_glb
+
+    model = BodyModel.template().scaled({"torso": 1.05}, {"l_thigh": 0.9})
+    rng = np.random.default_rng(11)
+    lim = model.link_model.dof_limits
+    theta = np.clip(rng.normal(0, 0.5, (4, 29)), lim[:, 0], lim[:, 1])
+    R = np.array([rot("z", a) for a in (0, 40, 120, -70)])
+    t = rng.normal(0, 0.3, (4, 3)) + (0, 0, 1)
+    write_glb(tmp_path / "model.glb", model, t, R, theta, fps=25)
+    gltf = pygltflib.GLTF2().load(str(tmp_path / "model.glb"))
+    blob = gltf.binary_blob()
+    assert gltf.asset.version == "2.0" and len(blob) >= gltf.buffers[0].byteLength
+    prim = gltf.meshes[0].primitives[0]
+    pos = _accessor(gltf, blob, prim.attributes.POSITION)
+    acc = gltf.accessors[prim.attributes.POSITION]
+    assert np.allclose(acc.min, pos.min(0)) and np.allclose(acc.max, pos.max(0))
+    joints = _accessor(gltf, blob, prim.attributes.JOINTS_0).astype(int)
+    weights = _accessor(gltf, blob, prim.attributes.WEIGHTS_0).astype(float)
+    assert np.abs(weights.sum(1) - 1).max() < 1e-6 and (weights >= 0).all()
+    faces = _accessor(gltf, blob, prim.indices).reshape(-1, 3)
+    assert faces.max() < len(pos)
+    skin = gltf.skins[0]
+    ibm = _accessor(gltf, blob, skin.inverseBindMatrices).reshape(-1, 4, 4).transpose(0, 2, 1)
+    assert joints.max() < len(skin.joints) and np.allclose(ibm[:, 3], (0, 0, 0, 1))
+    anim = gltf.animations[0]
+    times = _accessor(gltf, blob, anim.samplers[0].input)[:, 0]
+    assert np.all(np.diff(times) > 0) and np.isclose(times[1], 1 / 25)
+    parent = {c: i for i, n in enumerate(gltf.nodes) for c in (n.children or [])}
+    for frame in range(4):
+        local = {i: [n.translation, n.rotation] for i, n in enumerate(gltf.nodes)}
+        for ch in anim.channels:
+            value = _accessor(gltf, blob, anim.samplers[ch.sampler].output)[frame]
+            local[ch.target.node][0 if ch.target.path == "translation" else 1] = value
+
+        def world(i):
+            M = _matrix(*local[i])
+            return world(parent[i]) @ M if i in parent else M
+
+        mats = np.array([world(j) @ ibm[k] for k, j in enumerate(skin.joints)])
+        v4 = np.c_[pos, np.ones(len(pos))]
+        skinned = np.einsum("vk,vkab,vb->va", weights, mats[joints], v4)[:, :3]
+        ours = model.pose(theta[frame], R[frame], t[frame]).vertices @ Z_UP_TO_Y_UP.T
+        assert np.abs(skinned - ours).max() < 1e-3, frame

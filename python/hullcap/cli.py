@@ -24,7 +24,7 @@ def _track(args) -> int:
     from hullcap.export import write_overlays, write_report
 
     write_report(Path(args.out) / "report.png", result)
-    made = "joints.csv, pose.npz, model/, motion.bvh, report.png"
+    made = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png"
     if not args.no_overlay:
         write_overlays(args.out, seq, result)
         made += ", overlay/"
@@ -78,13 +78,17 @@ def _demo(args) -> int:
 
 
 def _export(args) -> int:
-    from hullcap.export.bvh import write_bvh
+    from hullcap.export import write_bvh, write_glb
     from hullcap.tracking import load_result, write_joints_csv
 
     result = load_result(args.out)
-    target = Path(args.to) if args.to else Path(args.out) / {"bvh": "motion.bvh", "csv": "joints.csv"}[args.format]
+    names = {"bvh": "motion.bvh", "glb": "model.glb", "csv": "joints.csv"}
+    target = Path(args.to) if args.to else Path(args.out) / names[args.format]
+    motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
     if args.format == "bvh":
-        write_bvh(target, result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
+        write_bvh(target, *motion)
+    elif args.format == "glb":
+        write_glb(target, *motion)
     else:
         write_joints_csv(target, result)
     print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
@@ -142,7 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
         "Write a finished run's motion (its pose.npz and model/) in another format."))
     e.add_argument("out", help="the results folder of a `hullcap track` run")
-    e.add_argument("--format", choices=["bvh", "csv"], required=True, help="bvh: motion.bvh; csv: joints.csv")
+    e.add_argument("--format", choices=["bvh", "glb", "csv"], required=True,
+                   help="bvh: motion.bvh (Blender, MotionBuilder); glb: model.glb (skinned mesh + motion); csv: joints.csv")
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
     e.set_defaults(run=_export)
     return ap

@@ -6,8 +6,8 @@ mean residual); a bad fit is retried from the previous pose and from perturbed s
 a frame that still fails is marked failed while tracking goes on. The first frame builds
 the subject's model (:mod:`hullcap.subject`) unless one is given.
 
-Outputs (FORMATS.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``; all
-written atomically.
+Outputs (FORMATS.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``,
+``model.glb``; all written atomically.
 A checkpoint (``.checkpoint.npz``) written every few frames lets an interrupted run
 resume where it stopped.
 """
@@ -26,6 +26,7 @@ import numpy as np
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.export.bvh import write_bvh
+from hullcap.export.gltf import write_glb
 from hullcap.fitting import FitResult, PoseParameters, fit, make_target
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
@@ -264,7 +265,8 @@ class Tracker:
 
 
 def write_outputs(out, result: TrackingResult) -> None:
-    """Write ``joints.csv``, ``pose.npz`` (FORMATS.md) and ``motion.bvh``, each atomically."""
+    """Write ``joints.csv``, ``pose.npz`` (FORMATS.md), ``motion.bvh`` and ``model.glb``,
+    each atomically."""
     out = Path(out)
     write_joints_csv(out / "joints.csv", result)
     buf = io.BytesIO()
@@ -273,8 +275,9 @@ def write_outputs(out, result: TrackingResult) -> None:
     np.savez(buf, **arrays)
     atomic_write(out / "pose.npz", buf.getvalue())
     if (~result.failed).any():
-        write_bvh(out / "motion.bvh", result.model, result.root_translation, result.root_rotation,
-                  result.theta, result.fps)
+        motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
+        write_bvh(out / "motion.bvh", *motion)
+        write_glb(out / "model.glb", *motion)
 
 
 def write_joints_csv(path, result: TrackingResult) -> None:
