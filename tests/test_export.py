@@ -68,6 +68,12 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert (tmp_path / "out" / "motion.bvh").is_file() and (tmp_path / "out" / "model.glb").is_file()
     assert main(["export", str(tmp_path / "out"), "--format", "glb", "--to", str(tmp_path / "m.glb")]) == 0
     assert (tmp_path / "m.glb").read_bytes()[:4] == b"glTF"
+    if __import__("importlib").util.find_spec("ezc3d"):
+        from hullcap.export import read_c3d
+
+        assert main(["export", str(tmp_path / "out"), "--format", "c3d"]) == 0
+        labels, points, rate = read_c3d(tmp_path / "out" / "joints.c3d")
+        assert labels[0] == "pelvis" and points.shape == (3, 21, 3) and rate == 30
     # Overlay videos, one per camera, complete; the report picture.
     import cv2
 
@@ -161,3 +167,22 @@ def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path):
         skinned = np.einsum("vk,vkab,vb->va", weights, mats[joints], v4)[:, :3]
         ours = model.pose(theta[frame], R[frame], t[frame]).vertices @ Z_UP_TO_Y_UP.T
         assert np.abs(skinned - ours).max() < 1e-3, frame
+
+
+def test_c3d_round_trip(tmp_path):
+    pytest.importorskip("ezc3d", reason="C3D support (pip install ezc3d)")
+    from hullcap.export.c3d import read_c3d, write_c3d
+
+    model = BodyModel.template()
+    rng = np.random.default_rng(3)
+    joints = rng.normal(0, 0.5, (7, len(model.joint_names), 3)) + (0, 0, 1)
+    joints[4] = np.nan  # a failed frame
+    write_c3d(tmp_path / "joints.c3d", model.joint_names, joints, fps=50)
+    labels, back, rate = read_c3d(tmp_path / "joints.c3d")
+    assert labels == list(model.joint_names) and rate == 50
+    assert back.shape == joints.shape
+    ok = ~np.isnan(joints).any((1, 2))
+    assert np.abs(back[ok] - joints[ok]).max() < 1e-6  # float32 millimetres
+    assert np.isnan(back[4]).all()
+    with pytest.raises(ValueError, match="joints must have shape"):
+        write_c3d(tmp_path / "x.c3d", model.joint_names, joints[:, :3], fps=50)

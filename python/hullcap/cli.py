@@ -78,17 +78,19 @@ def _demo(args) -> int:
 
 
 def _export(args) -> int:
-    from hullcap.export import write_bvh, write_glb
+    from hullcap.export import write_bvh, write_c3d, write_glb
     from hullcap.tracking import load_result, write_joints_csv
 
     result = load_result(args.out)
-    names = {"bvh": "motion.bvh", "glb": "model.glb", "csv": "joints.csv"}
+    names = {"bvh": "motion.bvh", "glb": "model.glb", "c3d": "joints.c3d", "csv": "joints.csv"}
     target = Path(args.to) if args.to else Path(args.out) / names[args.format]
     motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
     if args.format == "bvh":
         write_bvh(target, *motion)
     elif args.format == "glb":
         write_glb(target, *motion)
+    elif args.format == "c3d":
+        write_c3d(target, result.model.joint_names, result.joints, result.fps)
     else:
         write_joints_csv(target, result)
     print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
@@ -146,8 +148,9 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
         "Write a finished run's motion (its pose.npz and model/) in another format."))
     e.add_argument("out", help="the results folder of a `hullcap track` run")
-    e.add_argument("--format", choices=["bvh", "glb", "csv"], required=True,
-                   help="bvh: motion.bvh (Blender, MotionBuilder); glb: model.glb (skinned mesh + motion); csv: joints.csv")
+    e.add_argument("--format", choices=["bvh", "glb", "c3d", "csv"], required=True,
+                   help="bvh: motion.bvh (Blender, MotionBuilder); glb: model.glb (skinned mesh + motion); "
+                        "c3d: joints.c3d (biomechanics tools; needs ezc3d); csv: joints.csv")
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
     e.set_defaults(run=_export)
     return ap

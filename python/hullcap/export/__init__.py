@@ -1,7 +1,8 @@
 """Outputs people load into other tools (DESIGN.md §10)."""
 
 from hullcap.export.bvh import write_bvh
+from hullcap.export.c3d import read_c3d, write_c3d
 from hullcap.export.gltf import write_glb
 from hullcap.export.overlay import write_overlays, write_report
 
-__all__ = ["write_bvh", "write_glb", "write_overlays", "write_report"]
+__all__ = ["read_c3d", "write_bvh", "write_c3d", "write_glb", "write_overlays", "write_report"]

@@ -1,0 +1,53 @@
+"""C3D files of the joint centres, for biomechanics tools (Visual3D, OpenSim, Mokka…).
+
+Written with ezc3d (``pip install ezc3d``, the ``c3d`` extra): one point per canonical
+joint, labelled by its name, in millimetres (the C3D convention) in our world frame (z up),
+at the sequence's frame rate; failed frames are written as missing (NaN).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from hullcap._files import atomic_write
+
+__all__ = ["write_c3d", "read_c3d"]
+
+
+def _ezc3d():
+    try:
+        import ezc3d
+    except ImportError as e:
+        raise ValueError("C3D export needs ezc3d: pip install ezc3d (or hullcap[c3d])") from e
+    return ezc3d
+
+
+def write_c3d(path, joint_names, joints, fps: float) -> None:
+    """Write (F, J, 3) joint positions (metres, NaN = missing) as C3D, atomically."""
+    ezc3d = _ezc3d()
+    joints = np.asarray(joints, float)
+    if joints.ndim != 3 or joints.shape[1:] != (len(joint_names), 3):
+        raise ValueError(f"joints must have shape (F, {len(joint_names)}, 3), got {joints.shape}")
+    c3d = ezc3d.c3d()
+    c3d["parameters"]["POINT"]["RATE"]["value"] = np.array([fps])
+    c3d["parameters"]["POINT"]["LABELS"]["value"] = list(joint_names)
+    c3d["parameters"]["POINT"]["UNITS"]["value"] = ["mm"]
+    points = np.ones((4, len(joint_names), len(joints)))
+    points[:3] = joints.transpose(2, 1, 0) * 1000.0
+    c3d["data"]["points"] = points
+    atomic_write(Path(path), lambda tmp: c3d.write(str(tmp)))
+
+
+def read_c3d(path) -> tuple[list[str], np.ndarray, float]:
+    """``(labels, (F, J, 3) metres, frame rate)`` of a C3D file's points."""
+    ezc3d = _ezc3d()
+    c3d = ezc3d.c3d(str(path))
+    labels = list(c3d["parameters"]["POINT"]["LABELS"]["value"])
+    unit = c3d["parameters"]["POINT"]["UNITS"]["value"][0].strip().lower()
+    scale = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}.get(unit)
+    if scale is None:
+        raise ValueError(f"{path}: unknown point unit {unit!r}")
+    points = c3d["data"]["points"][:3].transpose(2, 1, 0) * scale
+    return labels, points, float(c3d["parameters"]["POINT"]["RATE"]["value"][0])
