@@ -14,7 +14,7 @@ ENGINE_SOURCES := Cargo.toml pyproject.toml $(wildcard Cargo.lock) \
                   $(shell find crates -name '*.rs' -o -name Cargo.toml)
 ENGINE := $(VENV)/.engine-built
 
-.PHONY: demo test bench paper wheel engine no-rayon clean
+.PHONY: demo test bench paper docs wheel engine no-rayon clean
 
 demo: $(ENGINE)
 	$(VENV)/bin/hullcap demo
@@ -34,6 +34,10 @@ bench: $(ENGINE)
 # The paper's evaluation (issue 6): plots and docs/paper.md, seeded.
 paper: $(ENGINE)
 	$(PY) benchmarks/paper.py
+
+# The CLI reference, generated from the parser.
+docs: $(ENGINE)
+	COLUMNS=100 $(PY) -c "from hullcap.cli import reference; print(reference())" > docs/cli.md
 
 wheel: $(PY)
 	$(VENV)/bin/maturin build --release --out dist

@@ -106,8 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("track", help="track a sequence folder", description=(
         "Track the person in a sequence folder (cameras.json, meta.json, frames/ or videos/, "
-        "background/ or silhouettes/): writes joints.csv, pose.npz and model/ to OUT. An "
-        "interrupted run resumes where it stopped."))
+        "background/ or silhouettes/): writes joints.csv, pose.npz, model/, motion.bvh, model.glb, "
+        "report.png and overlay/<cam>.mp4 to OUT. An interrupted run resumes where it stopped."))
     t.add_argument("sequence", help="the sequence folder")
     t.add_argument("--out", required=True, help="the results folder")
     t.add_argument("--model", help="a body model folder from an earlier run of the same subject (skips building one)")
@@ -154,6 +154,23 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
     e.set_defaults(run=_export)
     return ap
+
+
+def reference() -> str:
+    """The command-line reference as Markdown, made from the parser (docs/cli.md)."""
+    import contextlib
+    import io
+
+    parser = build_parser()
+    out = ["# Command-line reference", "", "Generated from the parser by `hullcap.cli.reference()` "
+           "(`make docs`); `tests/test_docs.py` checks it is current.", ""]
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, p in sub.choices.items():
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            p.print_help()
+        out += [f"## hullcap {name}", "", "```text", buf.getvalue().rstrip(), "```", ""]
+    return "\n".join(out)
 
 
 def main(argv=None) -> int:
