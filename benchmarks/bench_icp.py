@@ -23,7 +23,7 @@ from hullcap._implicit import field_mesh
 from hullcap.data.body import make_template  # type: ignore[attr-defined]
 from hullcap.fitting import make_target
 from hullcap.links import LinkModel
-from hullcap.mesh import Surface, vertex_normals
+from hullcap.mesh import Surface
 
 BOX = ((-0.95, -0.2, -0.99), (0.95, 0.15, 0.80))
 
@@ -33,7 +33,7 @@ def main():
     v, f = field_mesh(make_template.body_field, *BOX, make_template.VOXEL / 2)
     model = BodyModel(links, v, f)
     tv, tf = field_mesh(make_template.body_field, *BOX, 0.0068)
-    target_model = BodyModel(links, tv, tf, skin=None)
+    target_model = BodyModel(links, tv, tf)
     rng = np.random.default_rng(0)
     theta = np.clip(rng.normal(0, 0.2, 29), links.dof_limits[:, 0], links.dof_limits[:, 1])
     posed = target_model.pose(theta, np.eye(3), (0.0, 0.0, 0.97))

@@ -16,7 +16,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
 
 from hullcap.evaluate import accuracy
 from hullcap.sequence import Sequence

@@ -27,6 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hullcap import BodyModel, LinkModel, PoseParameters, Surface, fit  # noqa: E402
+from hullcap.fitting import yaw_rotation  # noqa: E402
 from hullcap._implicit import field_mesh, round_cone, smooth_union  # noqa: E402
 from hullcap.cameras import Camera, look_at  # noqa: E402
 from hullcap.render import shade  # noqa: E402
@@ -193,8 +194,7 @@ def offset_trials(rng, magnitudes, trials):
             sign = rng.choice([-1, 1], 29)
             start = np.clip(truth + sign * np.radians(mag), lim[:, 0], lim[:, 1])
             yaw = np.radians(mag / 4) * rng.choice([-1, 1])
-            c, s = np.cos(yaw), np.sin(yaw)
-            cases.append((PoseParameters(start, np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]),
+            cases.append((PoseParameters(start, yaw_rotation(yaw),
                                          np.array([0, 0, 0.97]) + rng.normal(0, mag / 1000, 3)), truth))
         out[mag] = cases
     return model, out

@@ -80,8 +80,8 @@ def test_template_is_a_closed_person_sized_mesh(model):
     height = np.ptp(v[:, 2])
     assert 1.70 < height < 1.80
     assert 1.70 < np.ptp(v[:, 0]) < 1.85  # arm span ≈ height
-    # Every link and joint centre lies inside the body: farther from the surface along
-    # +x, −x, +y, −y than nothing, i.e. surrounded on both sides in x and y.
+    # Every joint lies inside the body: the surface points at its x and z (within 2 cm)
+    # lie in front of it and behind it.
     pose = model.pose(root_translation=(0, 0, model.rest_root_height))
     assert abs(pose.vertices[:, 2].min()) < 1e-9
     for name, j in zip(model.joint_names, model.pose().joints):
@@ -99,7 +99,7 @@ def test_rest_pose_is_exact_and_joints_follow_the_links(model):
     knee, ankle = (bent.joints[model.joint_names.index(n)] for n in ("l_knee", "l_ankle"))
     shin = ankle - knee
     assert shin[1] > 0.4 and abs(shin[2]) < 0.05  # the shin now points backwards
-    # Vertices of the foot move with it; vertices of the head do not.
+    # The head, on another branch of the tree, stays where it was.
     assert np.allclose(bent.joints[model.joint_names.index("head")], pose.joints[4])
 
 

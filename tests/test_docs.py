@@ -1,6 +1,5 @@
 """The documentation runs: the API tour executes, the CLI reference is current."""
 
-import os
 import re
 from pathlib import Path
 

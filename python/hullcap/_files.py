@@ -1,8 +1,11 @@
-"""Atomic file writes: a reader sees the old file or the whole new one, never a part."""
+"""Reading documents with errors that name the file, and atomic writes: a reader sees
+the old file or the whole new one, never a part."""
 
 from __future__ import annotations
 
+import json
 import os
+import tomllib
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -25,3 +28,17 @@ def atomic_write(path, data: bytes | Callable[[Path], None]) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def read_document(path) -> dict:
+    """A JSON (``*.json``) or TOML (``*.toml``) file parsed; `ValueError` names the file
+    when it cannot be read or parsed."""
+    path = Path(path)
+    toml = path.suffix.lower() == ".toml"
+    try:
+        text = path.read_text()
+        return tomllib.loads(text) if toml else json.loads(text)
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read ({e.strerror})") from e
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: not valid {'TOML' if toml else 'JSON'} ({e})") from e

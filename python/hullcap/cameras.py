@@ -9,7 +9,6 @@ top-left pixel. Besides our own ``cameras.json``, the calibrations of EasyMocap
 from __future__ import annotations
 
 import json
-import tomllib
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +16,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from hullcap._files import atomic_write
+from hullcap._files import atomic_write, read_document
 
 __all__ = ["Camera", "Cameras", "ring"]
 
@@ -48,13 +47,12 @@ class Camera:
     def __post_init__(self):
         where = f"camera {self.name!r}"
         for attr, shape in (("K", (3, 3)), ("dist", (5,)), ("R", (3, 3)), ("t", (3,))):
-            raw = getattr(self, attr)
-            if attr == "dist":
-                raw = np.concatenate([np.ravel(np.asarray(raw, float)), np.zeros(5)])[:5] if np.size(raw) <= 5 else raw
             try:
-                value = np.array(raw, dtype=np.float64)
+                value = np.array(getattr(self, attr), dtype=np.float64)
             except (TypeError, ValueError):
                 raise ValueError(f"{where}: {attr} is not numeric") from None
+            if attr == "dist" and value.ndim <= 1 and value.size < 5:  # [k1 k2 p1 p2]: k3 = 0
+                value = np.concatenate([value.ravel(), np.zeros(5 - value.size)])
             if value.shape != shape or not np.isfinite(value).all():
                 raise ValueError(f"{where}: {attr} must be {shape} finite numbers, got shape {value.shape}")
             value.setflags(write=False)
@@ -156,12 +154,7 @@ class Cameras(Sequence[Camera]):
     def load(cls, path) -> Cameras:
         """Read ``cameras.json`` (FORMATS.md); errors name the file, camera and field."""
         path = Path(path)
-        try:
-            spec = json.loads(path.read_text())
-        except OSError as e:
-            raise ValueError(f"{path}: cannot read ({e.strerror})") from e
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{path}: not valid JSON ({e})") from e
+        spec = read_document(path)
         if spec.get("units", "m") != "m":
             raise ValueError(f"{path}: units must be 'm', got {spec.get('units')!r}")
         if not isinstance(spec.get("cameras"), list):
@@ -223,12 +216,7 @@ class Cameras(Sequence[Camera]):
         (Rodrigues, world → camera) and ``translation`` (metres). `up` as in
         :meth:`from_easymocap`."""
         path = Path(path)
-        try:
-            doc = tomllib.loads(path.read_text())
-        except OSError as e:
-            raise ValueError(f"{path}: cannot read ({e.strerror})") from e
-        except tomllib.TOMLDecodeError as e:
-            raise ValueError(f"{path}: not valid TOML ({e})") from e
+        doc = read_document(path)
         cams = []
         for key, c in doc.items():
             if key == "metadata" or not isinstance(c, dict):
@@ -254,7 +242,7 @@ def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
     dist = np.ravel(np.asarray(dist if dist is not None else [], float))
     if dist.size > 5:
         raise ValueError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] are supported")
-    return Camera(name, w, h, K, np.concatenate([dist, np.zeros(5 - dist.size)]), R, t)
+    return Camera(name, w, h, K, dist, R, t)  # Camera pads [k1 k2 p1 p2] with k3 = 0
 
 
 def _storage(path) -> cv2.FileStorage:

@@ -11,7 +11,13 @@ from hullcap import _engine
 from hullcap.body import BodyModel
 from hullcap.mesh import Surface
 
-__all__ = ["PoseParameters", "FitResult", "fit", "make_target"]
+__all__ = ["PoseParameters", "FitResult", "fit", "make_target", "yaw_rotation"]
+
+
+def yaw_rotation(angle: float) -> np.ndarray:
+    """The (3, 3) rotation by `angle` radians about the vertical (z) axis."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 @dataclass(frozen=True)
@@ -32,8 +38,7 @@ class PoseParameters:
     def rest(cls, model: BodyModel, root_translation=None, yaw: float = 0.0) -> PoseParameters:
         """The rest pose, standing on the floor (or at `root_translation`), turned by
         `yaw` radians about z (0 = facing −y)."""
-        c, s = np.cos(yaw), np.sin(yaw)
-        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        R = yaw_rotation(yaw)
         t = np.array([0.0, 0.0, model.rest_root_height]) if root_translation is None else np.asarray(root_translation, float)
         return cls(np.zeros(model.n_dofs), R, t)
 

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hullcap._files import atomic_write, read_document
+
 __all__ = ["LinkModel", "STANDARD_LINKS"]
 
 DATA = Path(__file__).resolve().parent / "data" / "body"
@@ -68,14 +70,7 @@ class LinkModel:
     @classmethod
     def load(cls, path) -> LinkModel:
         """Read and validate a link model file; `ValueError` names the file and the entry."""
-        path = Path(path)
-        try:
-            spec = json.loads(path.read_text())
-        except OSError as e:
-            raise ValueError(f"{path}: cannot read ({e.strerror})") from e
-        except json.JSONDecodeError as e:
-            raise ValueError(f"{path}: not valid JSON ({e})") from e
-        return cls.from_dict(spec, source=str(path))
+        return cls.from_dict(read_document(path), source=str(path))
 
     @classmethod
     def from_dict(cls, spec: dict, source: str = "<memory>") -> LinkModel:
@@ -112,8 +107,6 @@ class LinkModel:
 
     def save(self, path) -> None:
         """Write the model as JSON (atomically)."""
-        from hullcap._files import atomic_write
-
         atomic_write(Path(path), (json.dumps(self.to_dict(), indent=1) + "\n").encode())
 
     @property

@@ -14,7 +14,7 @@ import numpy as np
 
 from hullcap._files import atomic_write
 
-__all__ = ["Surface", "vertex_normals", "check_closed", "read_mesh", "write_mesh"]
+__all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "read_mesh", "write_mesh"]
 
 
 @dataclass(frozen=True)
@@ -39,12 +39,23 @@ class Surface:
         return cls(vertices, faces, vertex_normals(vertices, faces))
 
 
+def face_normals(vertices: np.ndarray, faces: np.ndarray, unit: bool = True) -> np.ndarray:
+    """(T, 3) triangle normals (right-handed in the winding): unit, or with length twice
+    the triangle's area when ``unit=False``."""
+    v = np.asarray(vertices, dtype=np.float64)
+    f = np.asarray(faces)
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    if unit:
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    return n
+
+
 def vertex_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """(V, 3) unit vertex normals, each the area-weighted mean of its triangles' normals
     (an unreferenced vertex gets +z)."""
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces)
-    face_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    face_n = face_normals(v, f, unit=False)
     n = np.zeros_like(v)
     for corner in range(3):
         np.add.at(n, f[:, corner], face_n)

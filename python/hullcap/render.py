@@ -11,6 +11,7 @@ import numpy as np
 
 from hullcap._engine import rasterize
 from hullcap.cameras import Camera
+from hullcap.mesh import face_normals
 
 __all__ = ["render_depth", "shade"]
 
@@ -32,10 +33,8 @@ def shade(camera: Camera, vertices, faces, colour=SKIN, background=(1.0, 1.0, 1.
     vertices = np.asarray(vertices, float)
     faces = np.asarray(faces)
     _, face = render_depth(camera, vertices, faces, threads)
-    a, b, c = (vertices[faces[:, i]] for i in range(3))
-    n = np.cross(b - a, c - a)
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    to_camera = camera.centre - (a + b + c) / 3
+    n = face_normals(vertices, faces)
+    to_camera = camera.centre - vertices[faces].mean(1)
     to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
     key = np.clip(np.einsum("ij,ij->i", n, to_camera), 0, 1)
     fill = np.clip(n[:, 2], 0, 1)

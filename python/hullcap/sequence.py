@@ -7,12 +7,12 @@ camera folder, an unreadable or wrongly sized image) raises ``ValueError`` namin
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from hullcap._files import read_document
 from hullcap.cameras import Cameras
 
 __all__ = ["Sequence"]
@@ -30,13 +30,11 @@ class Sequence:
             raise ValueError(f"{self.path}: missing cameras.json")
         self.cameras = Cameras.load(self.path / "cameras.json")
         meta_path = self.path / "meta.json"
+        meta = read_document(meta_path)
         try:
-            meta = json.loads(meta_path.read_text())
             self.fps = float(meta["fps"])
             self.n_frames = int(meta["frames"])
-        except OSError as e:
-            raise ValueError(f"{meta_path}: cannot read ({e.strerror})") from e
-        except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+        except (KeyError, TypeError, ValueError) as e:
             raise ValueError(f"{meta_path}: needs {{\"fps\": …, \"frames\": …}} ({e!r})") from e
         if not (self.fps > 0 and self.n_frames > 0):
             raise ValueError(f"{meta_path}: fps and frames must be positive")

@@ -192,18 +192,13 @@ def _hull_at_rest(model: BodyModel, pose: PoseParameters, hull: Surface) -> Body
     inverse of its blended link transform (weights from the fitted model's nearest
     vertex), expressed in the body frame."""
     posed = model.pose(pose.theta, pose.root_rotation, pose.root_translation)
-    tree = NormalKDTree(posed.vertices, posed.normals)
-    near, _ = tree.query(hull.vertices, hull.normals)
-    near = np.where(near >= 0, near, tree.query(hull.vertices, hull.normals, max_angle=np.pi)[0])
+    near, _ = NormalKDTree(posed.vertices, posed.normals).query(hull.vertices, hull.normals)  # ungated
     index, weight = model.skin
+    k_idx, k_w = index[near], weight[near]  # (H, K) each
     links = model.link_model
-    # World transform of link j's skinning: x ↦ A_j (x_rest − o_j) + c_j.
-    A = posed.link_rotations
-    c = posed.link_positions
-    rest = np.empty_like(hull.vertices)
-    for v_i in range(len(hull.vertices)):
-        k_idx, k_w = index[near[v_i]], weight[near[v_i]]
-        M = np.einsum("k,kab->ab", k_w, A[k_idx])
-        off = np.einsum("k,ka->a", k_w, c[k_idx] - np.einsum("kab,kb->ka", A[k_idx], links.origins[k_idx]))
-        rest[v_i] = np.linalg.solve(M, hull.vertices[v_i] - off)
+    # Link j moves a rest point x to A_j (x − o_j) + c_j; blended: M x + off.
+    A, c = posed.link_rotations, posed.link_positions
+    M = np.einsum("hk,hkab->hab", k_w, A[k_idx])
+    off = np.einsum("hk,hka->ha", k_w, c[k_idx] - np.einsum("hkab,hkb->hka", A[k_idx], links.origins[k_idx]))
+    rest = np.linalg.solve(M, (hull.vertices - off)[..., None])[..., 0]
     return BodyModel(links, rest, hull.faces, b=model.skin_parameters[0], k=model.skin_parameters[1])

@@ -17,12 +17,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from hullcap._engine import rasterize
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.cameras import Cameras, ring
+from hullcap.mesh import face_normals
 from hullcap.motions import motion_poses
 from hullcap.progress import progress
+from hullcap.render import render_depth
 
 __all__ = ["render_sequence", "synthesize", "SUBJECTS"]
 
@@ -86,22 +87,18 @@ def scene_image(camera, seed: int = 0) -> np.ndarray:
 
 def _draw(camera, vertices, faces, colours, scene, noise, rng):
     """(colour uint8 BGR, exact mask uint8) of one view."""
-    px, z = camera.project(vertices)
-    depth, face = rasterize(np.concatenate([px, z[:, None]], 1), faces, camera.width, camera.height)
+    _, face = render_depth(camera, vertices, faces)
     # The shadow: the mesh flattened onto the floor along the light, seen by the camera.
     flat = vertices - np.outer(np.maximum(vertices[:, 2], 0) / LIGHT[2], LIGHT)
-    fpx, fz = camera.project(flat)
-    _, shadow_face = rasterize(np.concatenate([fpx, fz[:, None]], 1), faces, camera.width, camera.height)
+    _, shadow_face = render_depth(camera, flat, faces)
     shadow = cv2.GaussianBlur((shadow_face >= 0).astype(np.float32), (0, 0), 3.0)
     img = scene * (1 - 0.45 * shadow[..., None])
     seen = face >= 0
     if seen.any():
-        tri = faces[face[seen]]
-        a, b, c = (vertices[tri[:, i]] for i in range(3))
-        n = np.cross(b - a, c - a)
-        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        n = face_normals(vertices, faces)
         light = 0.45 + 0.45 * np.clip(n @ LIGHT, 0, 1) + 0.1 * np.clip(n[:, 2], 0, 1)
-        img[seen] = light[:, None] * colours[tri].mean(1)
+        shaded = light[:, None] * colours[faces].mean(1)  # per triangle, then looked up
+        img[seen] = shaded[face[seen]]
     out = img * 255 + rng.normal(0, noise, img.shape)
     return np.clip(out, 0, 255).astype(np.uint8)[..., ::-1], (seen * 255).astype(np.uint8)
 

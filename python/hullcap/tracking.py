@@ -27,7 +27,7 @@ from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.export.bvh import write_bvh
 from hullcap.export.gltf import write_glb
-from hullcap.fitting import FitResult, PoseParameters, fit, make_target
+from hullcap.fitting import FitResult, PoseParameters, fit, make_target, yaw_rotation
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
 from hullcap.sequence import Sequence
@@ -62,6 +62,20 @@ class TrackingResult:
         nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
         return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
                    np.ones(n, bool), nan(), nan(), nan(), np.zeros(n, np.int64))
+
+    @classmethod
+    def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
+        """A result from the arrays of :meth:`arrays` (a checkpoint, or ``pose.npz``,
+        whose joints are recomputed from the model)."""
+        joints = a["joints"] if "joints" in a else None
+        result = cls(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
+                     np.full((len(a["theta"]), len(model.joint_names), 3), np.nan) if joints is None else joints,
+                     a["failed"], a["energy"], a["inlier_fraction"], a["mean_residual"], a["iterations"])
+        if joints is None:
+            for f in np.flatnonzero(~result.failed):
+                result.joints[f] = model.pose(result.theta[f], result.root_rotation[f],
+                                              result.root_translation[f], clamp=False).joints
+        return result
 
     def record(self, frame: int, result: FitResult) -> None:
         p = result.pose
@@ -157,26 +171,12 @@ class Tracker:
                 and result.mean_residual <= self.max_mean_residual)
 
     def fit_frame(self, model: BodyModel, surface, starts: list[PoseParameters]) -> tuple[FitResult, bool]:
-        """Fit from each start in turn until one passes; then perturbed restarts around
-        the first. Returns the best fit and whether it passed."""
+        """Fit from each start in turn, then from `retries` perturbed copies of the first,
+        until a fit passes. Returns the best fit and whether it passed."""
         t0 = time.perf_counter()
         target = make_target(surface)
         best = None
-        rng = np.random.default_rng(self.seed)
-        candidates = list(starts)
-        tried = 0
-        while candidates or tried < len(starts) + self.retries:
-            if not candidates:
-                base = starts[0]
-                lim = model.link_model.dof_limits
-                yaw = rng.normal(0, 0.15)
-                c, s = np.cos(yaw), np.sin(yaw)
-                turn = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]])
-                candidates.append(PoseParameters(
-                    np.clip(base.theta + rng.normal(0, 0.15, model.n_dofs), lim[:, 0], lim[:, 1]),
-                    turn @ base.root_rotation, base.root_translation + rng.normal(0, 0.03, 3)))
-            start = candidates.pop(0)
-            tried += 1
+        for start in self._candidates(model, starts):
             result = fit(model, target, start, **self.fit_options)
             if best is None or (self.passes(result), -result.energy) > (self.passes(best), -best.energy):
                 best = result
@@ -184,6 +184,16 @@ class Tracker:
                 break
         self.seconds["fit"] += time.perf_counter() - t0
         return best, self.passes(best)
+
+    def _candidates(self, model: BodyModel, starts: list[PoseParameters]):
+        yield from starts
+        rng = np.random.default_rng(self.seed)
+        lim = model.link_model.dof_limits
+        base = starts[0]
+        for _ in range(self.retries):
+            turn = yaw_rotation(rng.normal(0, 0.15))
+            yield PoseParameters(np.clip(base.theta + rng.normal(0, 0.15, model.n_dofs), lim[:, 0], lim[:, 1]),
+                                 turn @ base.root_rotation, base.root_translation + rng.normal(0, 0.03, 3))
 
     # -- the sequence ------------------------------------------------------------------
 
@@ -241,8 +251,8 @@ class Tracker:
         lim = result.model.link_model.dof_limits
         theta = np.clip(2 * result.theta[b] - result.theta[a], lim[:, 0], lim[:, 1])
         turn = result.root_rotation[b] @ result.root_rotation[a].T
-        u, _, vt = np.linalg.svd(turn @ result.root_rotation[b])
-        predicted = PoseParameters(theta, u @ vt, 2 * result.root_translation[b] - result.root_translation[a])
+        predicted = PoseParameters(theta, turn @ result.root_rotation[b],
+                                   2 * result.root_translation[b] - result.root_translation[a])
         return [predicted, last]
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
@@ -257,10 +267,7 @@ class Tracker:
         with np.load(path) as z:
             if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
                 return None, 0
-            model = BodyModel.load(out / "model")
-            result = TrackingResult(model, float(z["fps"]), z["theta"], z["root_rotation"], z["root_translation"],
-                                    z["joints"], z["failed"], z["energy"], z["inlier_fraction"],
-                                    z["mean_residual"], z["iterations"])
+            result = TrackingResult.from_arrays(BodyModel.load(out / "model"), {k: z[k] for k in z.files})
             return result, int(z["next_frame"])
 
 
@@ -301,13 +308,7 @@ def load_result(out) -> TrackingResult:
             a = {k: z[k] for k in z.files}
     except (OSError, ValueError) as e:
         raise ValueError(f"{path}: not a readable pose.npz ({e})") from e
-    missing = {"theta", "root_rotation", "root_translation", "failed", "fps"} - a.keys()
+    missing = set(TrackingResult.empty(model, 0, 1.0).arrays()) - {"joints"} - a.keys()
     if missing:
         raise ValueError(f"{path}: missing {sorted(missing)}")
-    result = TrackingResult(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
-                            np.full((len(a["theta"]), len(model.joint_names), 3), np.nan), a["failed"],
-                            a.get("energy"), a.get("inlier_fraction"), a.get("mean_residual"), a.get("iterations"))
-    for f in np.flatnonzero(~result.failed):
-        result.joints[f] = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f],
-                                      clamp=False).joints
-    return result
+    return TrackingResult.from_arrays(model, a)

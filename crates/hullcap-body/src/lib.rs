@@ -16,6 +16,8 @@ mod bvh;
 mod error;
 mod rig;
 mod skeleton;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 mod weights;
 
 pub use bvh::TriangleBvh;

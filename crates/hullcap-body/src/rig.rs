@@ -285,7 +285,7 @@ impl Rig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::skeleton::tests::chain;
+    use crate::testing::chain;
     use nalgebra::{Rotation3, Unit};
 
     /// Vertices scattered around the chain, each weighted on two neighbouring links.

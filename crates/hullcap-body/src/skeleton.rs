@@ -232,28 +232,9 @@ impl SkeletonPose {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
-
-    /// A three-link chain along +x: base at the origin, joints at x = 1 and x = 2.
-    pub(crate) fn chain() -> Skeleton {
-        let dof = |link, axis: [f64; 3]| Dof {
-            link,
-            axis: Vector3::from(axis),
-            lower: -2.0,
-            upper: 2.0,
-        };
-        Skeleton::new(
-            &[-1, 0, 1],
-            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
-            vec![
-                dof(1, [0.0, 0.0, 1.0]),
-                dof(1, [0.0, 1.0, 0.0]),
-                dof(2, [0.0, 0.0, 1.0]),
-            ],
-        )
-        .unwrap()
-    }
+    use crate::testing::chain;
 
     #[test]
     fn zero_pose_is_the_rest_pose() {

@@ -3,8 +3,9 @@
 
 use crate::IcpError;
 use crate::Target;
-use crate::normal_equations::{Pair, correspond, energy, normal_equations, robust_sigma};
-use hullcap_body::{Rig, RootPose};
+use crate::normal_equations::{Pair, Problem, robust_sigma};
+use hullcap_body::{Rig, RootPose, SkeletonPose};
+use hullcap_core::resolve_threads;
 use hullcap_kdtree::Gate;
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
 
@@ -118,7 +119,6 @@ pub fn fit(
     options: &FitOptions,
 ) -> Result<(Params, FitStats), IcpError> {
     check(rig, model_points, initial, groups, options)?;
-    let threads = hullcap_core::resolve_threads(options.threads);
     let n_dofs = rig.skeleton().n_dofs();
     let stages: Vec<Vec<usize>> = if options.hierarchical {
         std::iter::once((0..6).collect())
@@ -130,14 +130,18 @@ pub fn fit(
     let mut params = initial.clone();
     rig.skeleton().clamp(&mut params.theta);
     let mut fitter = Fitter {
-        rig,
-        target,
+        problem: Problem {
+            rig,
+            target,
+            kind: options.residual,
+            threads: resolve_threads(options.threads),
+        },
         model_points,
         options,
-        threads,
         iterations: 0,
     };
     let mut previous = f64::INFINITY;
+    let mut last = None;
     let mut rounds = 0;
     let max_rounds = if options.hierarchical {
         options.rounds.max(1)
@@ -149,9 +153,11 @@ pub fn fit(
         for stage in &stages {
             fitter.stage(&mut params, stage)?;
         }
-        let (now, _) = fitter.evaluate(&params)?;
-        let settled = (previous - now).abs() <= options.tolerance * now.max(1e-12);
-        previous = now;
+        let stats = fitter.evaluate(&params)?;
+        let settled =
+            (previous - stats.energy).abs() <= options.tolerance * stats.energy.max(1e-12);
+        previous = stats.energy;
+        last = Some(stats);
         if settled {
             break;
         }
@@ -159,14 +165,17 @@ pub fn fit(
     if options.hierarchical && options.polish {
         let all: Vec<usize> = (0..6 + n_dofs).collect();
         fitter.stage(&mut params, &all)?;
+        last = None; // the pose moved: evaluate it afresh
     }
-    let (energy, stats) = fitter.evaluate(&params)?;
+    let stats = match last {
+        Some(stats) => stats,
+        None => fitter.evaluate(&params)?,
+    };
     Ok((
         params,
         FitStats {
             iterations: fitter.iterations,
             rounds,
-            energy,
             ..stats
         },
     ))
@@ -227,66 +236,46 @@ fn check(
 }
 
 struct Fitter<'a> {
-    rig: &'a Rig,
-    target: &'a Target,
+    problem: Problem<'a>,
     model_points: &'a [u32],
     options: &'a FitOptions,
-    threads: usize,
     iterations: usize,
 }
 
 impl Fitter<'_> {
-    /// Correspondences at `params`, σ, and (energy, stats).
-    fn evaluate(&self, params: &Params) -> Result<(f64, FitStats), IcpError> {
-        let (pairs, distances, sigma) = self.pairs(params)?;
-        let pose = self.rig.skeleton().forward(&params.theta)?;
-        let e = energy(
-            self.rig,
-            self.target,
-            &pose,
-            &params.root,
-            &pairs,
-            sigma,
-            self.options.residual,
-            self.threads,
-        )?;
-        let n = self.model_points.len() as f64;
+    /// The statistics of `params` at fresh correspondences and σ (iterations and rounds
+    /// left for the caller).
+    fn evaluate(&self, params: &Params) -> Result<FitStats, IcpError> {
+        let (pose, pairs, distances, sigma) = self.pairs(params)?;
+        let energy = self.problem.energy(&pose, &params.root, &pairs, sigma)?;
         let inliers = distances
             .iter()
             .filter(|&&d| d <= self.options.inlier_distance)
             .count();
-        let mean = if distances.is_empty() {
+        let mean_residual = if distances.is_empty() {
             f64::INFINITY
         } else {
             distances.iter().sum::<f64>() / distances.len() as f64
         };
-        Ok((
-            e,
-            FitStats {
-                iterations: 0,
-                rounds: 0,
-                energy: e,
-                inlier_fraction: inliers as f64 / n,
-                mean_residual: mean,
-                sigma,
-            },
-        ))
+        Ok(FitStats {
+            iterations: 0,
+            rounds: 0,
+            energy,
+            inlier_fraction: inliers as f64 / self.model_points.len() as f64,
+            mean_residual,
+            sigma,
+        })
     }
 
-    fn pairs(&self, params: &Params) -> Result<(Vec<Pair>, Vec<f64>, f64), IcpError> {
-        let pose = self.rig.skeleton().forward(&params.theta)?;
-        let (pairs, distances) = correspond(
-            self.rig,
-            self.target,
-            &pose,
-            &params.root,
-            self.model_points,
-            &self.options.gate,
-            self.options.residual,
-            self.threads,
-        )?;
+    /// The skeleton's pose, the gated correspondences with their distances, and σ.
+    #[allow(clippy::type_complexity)]
+    fn pairs(&self, params: &Params) -> Result<(SkeletonPose, Vec<Pair>, Vec<f64>, f64), IcpError> {
+        let pose = self.problem.rig.skeleton().forward(&params.theta)?;
+        let (pairs, distances) =
+            self.problem
+                .correspond(&pose, &params.root, self.model_points, &self.options.gate)?;
         let sigma = robust_sigma(&distances, self.options.sigma_min);
-        Ok((pairs, distances, sigma))
+        Ok((pose, pairs, distances, sigma))
     }
 
     /// ICP iterations on the parameters `active` until they settle.
@@ -295,38 +284,20 @@ impl Fitter<'_> {
         let mut previous_direction: Option<(DVector<f64>, DVector<f64>)> = None;
         for _ in 0..self.options.iterations {
             self.iterations += 1;
-            let (pairs, _, sigma) = self.pairs(params)?;
+            let (pose, pairs, _, sigma) = self.pairs(params)?;
             if pairs.len() < active.len() {
                 return Ok(()); // too few partners to say anything
             }
-            let pose = self.rig.skeleton().forward(&params.theta)?;
-            let sums = normal_equations(
-                self.rig,
-                self.target,
-                &pose,
-                &params.root,
-                &pairs,
-                sigma,
-                self.options.residual,
-                active,
-                self.threads,
-            )?;
+            let sums = self
+                .problem
+                .normal_equations(&pose, &params.root, &pairs, sigma, active)?;
             let n = active.len();
             let h = DMatrix::from_row_slice(n, n, &sums.hessian);
             let g = DVector::from_vec(sums.gradient);
             let e0 = sums.energy;
             let energy_at = |candidate: &Params| -> Result<f64, IcpError> {
-                let pose = self.rig.skeleton().forward(&candidate.theta)?;
-                energy(
-                    self.rig,
-                    self.target,
-                    &pose,
-                    &candidate.root,
-                    &pairs,
-                    sigma,
-                    self.options.residual,
-                    self.threads,
-                )
+                let pose = self.problem.rig.skeleton().forward(&candidate.theta)?;
+                self.problem.energy(&pose, &candidate.root, &pairs, sigma)
             };
             let accepted = match self.options.solver {
                 Solver::LevenbergMarquardt => {
@@ -409,7 +380,7 @@ impl Fitter<'_> {
         if omega != Vector3::zeros() {
             out.root.rotation = Rotation3::new(omega).into_inner() * out.root.rotation;
         }
-        self.rig.skeleton().clamp(&mut out.theta);
+        self.problem.rig.skeleton().clamp(&mut out.theta);
         out
     }
 }

@@ -52,65 +52,18 @@ pub(crate) fn lorentzian(d: f64, sigma: f64) -> (f64, f64) {
     (sigma * sigma * u.ln_1p(), 1.0 / (1.0 + u))
 }
 
-/// The residual of a pair: (components, count, distance).
+/// The residual of model point `v` against target point `t`: (components, count,
+/// distance).
 #[inline]
-fn residual(
-    kind: Residual,
-    v: &Vector3<f64>,
-    q: &[f64; 3],
-    nq: &[f64; 3],
-) -> ([f64; 3], usize, f64) {
-    let d = v - Vector3::from(*q);
+fn residual(kind: Residual, target: &Target, v: &Vector3<f64>, t: usize) -> ([f64; 3], usize, f64) {
+    let d = v - Vector3::from(target.points[t]);
     match kind {
         Residual::PointToPoint => ([d.x, d.y, d.z], 3, d.norm()),
         Residual::PointToPlane => {
-            let r = d.dot(&Vector3::from(*nq));
+            let r = d.dot(&Vector3::from(target.normals[t]));
             ([r, 0.0, 0.0], 1, r.abs())
         }
     }
-}
-
-/// Partners of the model points posed at (`pose`, `root`), gated; with each matched
-/// pair's distance.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn correspond(
-    rig: &Rig,
-    target: &Target,
-    pose: &SkeletonPose,
-    root: &RootPose,
-    model_points: &[u32],
-    gate: &Gate,
-    kind: Residual,
-    threads: usize,
-) -> Result<(Vec<Pair>, Vec<f64>), IcpError> {
-    let mut posed = vec![([0.0; 3], [0.0; 3]); model_points.len()];
-    hullcap_core::for_each_chunk_mut(&mut posed, threads, 512, |offset, chunk| {
-        for (slot, &i) in chunk.iter_mut().zip(&model_points[offset..]) {
-            let (v, n) = rig.posed_vertex(pose, root, i as usize);
-            *slot = (v.into(), n.into());
-        }
-    })?;
-    let (points, normals): (Vec<[f64; 3]>, Vec<[f64; 3]>) = posed.iter().copied().unzip();
-    let found = target.tree.query(&points, &normals, gate, Some(threads))?;
-    let mut pairs = Vec::with_capacity(found.len());
-    let mut distances = Vec::with_capacity(found.len());
-    for ((nb, &vertex), p) in found.iter().zip(model_points).zip(&points) {
-        if nb.index >= 0 {
-            let t = nb.index as usize;
-            let (_, _, d) = residual(
-                kind,
-                &Vector3::from(*p),
-                &target.points[t],
-                &target.normals[t],
-            );
-            pairs.push(Pair {
-                vertex,
-                target: t as u32,
-            });
-            distances.push(d);
-        }
-    }
-    Ok((pairs, distances))
 }
 
 /// σ from the median pair distance (1.4826·median estimates a Gaussian's σ), bounded
@@ -125,102 +78,155 @@ pub(crate) fn robust_sigma(distances: &[f64], sigma_min: f64) -> f64 {
     (1.4826 * *median).max(sigma_min)
 }
 
-/// The robust energy of the pairs at a pose (no derivatives).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn energy(
-    rig: &Rig,
-    target: &Target,
-    pose: &SkeletonPose,
-    root: &RootPose,
-    pairs: &[Pair],
-    sigma: f64,
-    kind: Residual,
-    threads: usize,
-) -> Result<f64, IcpError> {
-    let mut partial = vec![0.0; threads.max(1)];
-    let per = pairs.len().div_ceil(partial.len()).max(1);
-    hullcap_core::for_each_chunk_mut(&mut partial, threads, 1, |offset, chunk| {
-        for (c, slot) in chunk.iter_mut().enumerate() {
-            let lo = ((offset + c) * per).min(pairs.len());
-            let hi = (lo + per).min(pairs.len());
-            *slot = pairs[lo..hi]
-                .iter()
-                .map(|p| {
-                    let (v, _) = rig.posed_vertex(pose, root, p.vertex as usize);
-                    let t = p.target as usize;
-                    let (_, _, d) = residual(kind, &v, &target.points[t], &target.normals[t]);
-                    lorentzian(d, sigma).0
-                })
-                .sum();
-        }
-    })?;
-    Ok(partial.iter().sum())
+/// What every pass over the model points needs: the rig, the target, the residual kind
+/// and the number of threads.
+pub(crate) struct Problem<'a> {
+    pub rig: &'a Rig,
+    pub target: &'a Target,
+    pub kind: Residual,
+    pub threads: usize,
 }
 
-/// JᵀWJ, JᵀWr and Σρ over the pairs for the parameters `active` (indices into
-/// t, ω, θ), with IRLS weights at scale `sigma`.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn normal_equations(
-    rig: &Rig,
-    target: &Target,
-    pose: &SkeletonPose,
-    root: &RootPose,
-    pairs: &[Pair],
-    sigma: f64,
-    kind: Residual,
-    active: &[usize],
-    threads: usize,
-) -> Result<Sums, IcpError> {
-    let n = active.len();
-    let p_all = rig.n_params();
-    let mut partial = vec![Sums::zeros(n); threads.max(1)];
-    let per = pairs.len().div_ceil(partial.len()).max(1);
-    hullcap_core::for_each_chunk_mut(&mut partial, threads, 1, |offset, chunk| {
-        let mut row = vec![[0.0; 3]; p_all];
-        let mut j = vec![[0.0; 3]; n];
-        for (c, sums) in chunk.iter_mut().enumerate() {
-            let lo = ((offset + c) * per).min(pairs.len());
-            let hi = (lo + per).min(pairs.len());
-            for p in &pairs[lo..hi] {
-                let i = p.vertex as usize;
-                let t = p.target as usize;
-                let (v, _) = rig.posed_vertex(pose, root, i);
-                let (r, m, d) = residual(kind, &v, &target.points[t], &target.normals[t]);
-                let (rho, w) = lorentzian(d, sigma);
-                sums.energy += rho;
-                rig.vertex_jacobian(pose, root, i, &mut row);
-                for (slot, &a) in j.iter_mut().zip(active) {
-                    *slot = match kind {
-                        Residual::PointToPoint => row[a],
-                        Residual::PointToPlane => {
-                            let nq = &target.normals[t];
-                            [
+impl Problem<'_> {
+    /// Model vertex `i` posed in the world (no normal).
+    #[inline]
+    fn world_vertex(&self, pose: &SkeletonPose, root: &RootPose, i: usize) -> Vector3<f64> {
+        root.rotation * self.rig.skin_vertex(pose, i) + root.translation
+    }
+
+    /// `visit(accumulator, pairs)` over one contiguous share of `pairs` per thread.
+    fn over_pairs<T: Send>(
+        &self,
+        pairs: &[Pair],
+        init: impl Fn() -> T,
+        visit: impl Fn(&mut T, &[Pair]) + Sync,
+    ) -> Result<Vec<T>, IcpError> {
+        let mut partial: Vec<T> = (0..self.threads.max(1)).map(|_| init()).collect();
+        let per = pairs.len().div_ceil(partial.len()).max(1);
+        hullcap_core::for_each_chunk_mut(&mut partial, self.threads, 1, |offset, chunk| {
+            for (c, acc) in chunk.iter_mut().enumerate() {
+                let lo = ((offset + c) * per).min(pairs.len());
+                visit(acc, &pairs[lo..(lo + per).min(pairs.len())]);
+            }
+        })?;
+        Ok(partial)
+    }
+
+    /// Partners of the model points posed at (`pose`, `root`), gated; with each matched
+    /// pair's distance.
+    pub(crate) fn correspond(
+        &self,
+        pose: &SkeletonPose,
+        root: &RootPose,
+        model_points: &[u32],
+        gate: &Gate,
+    ) -> Result<(Vec<Pair>, Vec<f64>), IcpError> {
+        let mut posed = vec![([0.0; 3], [0.0; 3]); model_points.len()];
+        hullcap_core::for_each_chunk_mut(&mut posed, self.threads, 512, |offset, chunk| {
+            for (slot, &i) in chunk.iter_mut().zip(&model_points[offset..]) {
+                let (v, n) = self.rig.posed_vertex(pose, root, i as usize);
+                *slot = (v.into(), n.into());
+            }
+        })?;
+        let (points, normals): (Vec<[f64; 3]>, Vec<[f64; 3]>) = posed.into_iter().unzip();
+        let found = self
+            .target
+            .tree
+            .query(&points, &normals, gate, Some(self.threads))?;
+        let mut pairs = Vec::with_capacity(found.len());
+        let mut distances = Vec::with_capacity(found.len());
+        for ((nb, &vertex), p) in found.iter().zip(model_points).zip(&points) {
+            if nb.index >= 0 {
+                let t = nb.index as usize;
+                let (_, _, d) = residual(self.kind, self.target, &Vector3::from(*p), t);
+                pairs.push(Pair {
+                    vertex,
+                    target: t as u32,
+                });
+                distances.push(d);
+            }
+        }
+        Ok((pairs, distances))
+    }
+
+    /// The robust energy of the pairs at a pose (no derivatives).
+    pub(crate) fn energy(
+        &self,
+        pose: &SkeletonPose,
+        root: &RootPose,
+        pairs: &[Pair],
+        sigma: f64,
+    ) -> Result<f64, IcpError> {
+        let partial = self.over_pairs(
+            pairs,
+            || 0.0,
+            |sum, share| {
+                for p in share {
+                    let v = self.world_vertex(pose, root, p.vertex as usize);
+                    let (_, _, d) = residual(self.kind, self.target, &v, p.target as usize);
+                    *sum += lorentzian(d, sigma).0;
+                }
+            },
+        )?;
+        Ok(partial.iter().sum())
+    }
+
+    /// JᵀWJ, JᵀWr and Σρ over the pairs for the parameters `active` (indices into
+    /// t, ω, θ), with IRLS weights at scale `sigma`.
+    pub(crate) fn normal_equations(
+        &self,
+        pose: &SkeletonPose,
+        root: &RootPose,
+        pairs: &[Pair],
+        sigma: f64,
+        active: &[usize],
+    ) -> Result<Sums, IcpError> {
+        let n = active.len();
+        let partial = self.over_pairs(
+            pairs,
+            || Sums::zeros(n),
+            |sums, share| {
+                let mut row = vec![[0.0; 3]; self.rig.n_params()];
+                let mut j = vec![[0.0; 3]; n];
+                for p in share {
+                    let (i, t) = (p.vertex as usize, p.target as usize);
+                    let v = self.world_vertex(pose, root, i);
+                    let (r, m, d) = residual(self.kind, self.target, &v, t);
+                    let (rho, w) = lorentzian(d, sigma);
+                    sums.energy += rho;
+                    self.rig.vertex_jacobian(pose, root, i, &mut row);
+                    let nq = &self.target.normals[t];
+                    for (slot, &a) in j.iter_mut().zip(active) {
+                        *slot = match self.kind {
+                            Residual::PointToPoint => row[a],
+                            Residual::PointToPlane => [
                                 row[a][0] * nq[0] + row[a][1] * nq[1] + row[a][2] * nq[2],
                                 0.0,
                                 0.0,
-                            ]
+                            ],
+                        };
+                    }
+                    for (a, ja) in j.iter().enumerate() {
+                        sums.gradient[a] += w * (0..m).map(|k| ja[k] * r[k]).sum::<f64>();
+                        for (b, jb) in j.iter().enumerate().skip(a) {
+                            sums.hessian[a * n + b] +=
+                                w * (0..m).map(|k| ja[k] * jb[k]).sum::<f64>();
                         }
-                    };
-                }
-                for (a, ja) in j.iter().enumerate() {
-                    sums.gradient[a] += w * (0..m).map(|k| ja[k] * r[k]).sum::<f64>();
-                    for (b, jb) in j.iter().enumerate().skip(a) {
-                        sums.hessian[a * n + b] += w * (0..m).map(|k| ja[k] * jb[k]).sum::<f64>();
                     }
                 }
+            },
+        )?;
+        let mut total = Sums::zeros(n);
+        for s in &partial {
+            total.add(s);
+        }
+        for a in 0..n {
+            for b in 0..a {
+                total.hessian[a * n + b] = total.hessian[b * n + a];
             }
         }
-    })?;
-    let mut total = Sums::zeros(n);
-    for s in &partial {
-        total.add(s);
+        Ok(total)
     }
-    for a in 0..n {
-        for b in 0..a {
-            total.hessian[a * n + b] = total.hessian[b * n + a];
-        }
-    }
-    Ok(total)
 }
 
 #[cfg(test)]
@@ -246,18 +252,22 @@ mod tests {
         let pose = rig.skeleton().forward(&at.theta).unwrap();
         let points: Vec<u32> = (0..rig.n_vertices() as u32).step_by(3).collect();
         for kind in [Residual::PointToPoint, Residual::PointToPlane] {
+            let problem = Problem {
+                rig: &rig,
+                target: &target,
+                kind,
+                threads: 2,
+            };
             let gate = Gate {
                 max_distance: 1.0,
                 max_angle: 3.0,
             };
-            let (pairs, d) =
-                correspond(&rig, &target, &pose, &at.root, &points, &gate, kind, 2).unwrap();
+            let (pairs, d) = problem.correspond(&pose, &at.root, &points, &gate).unwrap();
             let sigma = robust_sigma(&d, 0.004);
             let active: Vec<usize> = (0..9).collect();
-            let sums = normal_equations(
-                &rig, &target, &pose, &at.root, &pairs, sigma, kind, &active, 2,
-            )
-            .unwrap();
+            let sums = problem
+                .normal_equations(&pose, &at.root, &pairs, sigma, &active)
+                .unwrap();
             let h = 1e-6;
             for a in 0..9 {
                 let e = |s: f64| {
@@ -273,7 +283,7 @@ mod tests {
                         _ => p.theta[a - 6] += s,
                     }
                     let pose = rig.skeleton().forward(&p.theta).unwrap();
-                    energy(&rig, &target, &pose, &p.root, &pairs, sigma, kind, 1).unwrap()
+                    problem.energy(&pose, &p.root, &pairs, sigma).unwrap()
                 };
                 let fd = (e(h) - e(-h)) / (2.0 * h);
                 let g = sums.gradient[a];

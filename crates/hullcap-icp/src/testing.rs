@@ -1,27 +1,12 @@
 //! A test body: a tube around a three-link chain along +x, skinned across its joints.
 
 use crate::{Params, Target};
-use hullcap_body::{Dof, Rig, RootPose, Skeleton, SkinWeights};
+use hullcap_body::{Rig, RootPose, SkinWeights};
 use nalgebra::{Rotation3, Vector3};
 
-/// The tube's rig: links at x = 0, 1, 2; link 1 turns about z then y, link 2 about z.
+/// The tube's rig on the test chain (links at x = 0, 1, 2).
 pub(crate) fn tube() -> Rig {
-    let dof = |link, axis: [f64; 3]| Dof {
-        link,
-        axis: Vector3::from(axis),
-        lower: -2.0,
-        upper: 2.0,
-    };
-    let skeleton = Skeleton::new(
-        &[-1, 0, 1],
-        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
-        vec![
-            dof(1, [0.0, 0.0, 1.0]),
-            dof(1, [0.0, 1.0, 0.0]),
-            dof(2, [0.0, 0.0, 1.0]),
-        ],
-    )
-    .unwrap();
+    let skeleton = hullcap_body::testing::chain();
     let (mut v, mut n, mut index, mut weight) = (vec![], vec![], vec![], vec![]);
     for s in 0..=60 {
         let x = s as f64 * 0.05;

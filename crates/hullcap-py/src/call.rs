@@ -1,6 +1,10 @@
 //! The one way every heavy engine call is made from Python: GIL released, panics caught,
 //! errors mapped to Python exceptions.
 
+use hullcap_body::BodyError;
+use hullcap_icp::IcpError;
+use hullcap_kdtree::KdTreeError;
+use hullcap_raster::RasterError;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -10,22 +14,28 @@ pub(crate) trait IntoPyErr {
     fn into_py_err(self) -> PyErr;
 }
 
-impl IntoPyErr for hullcap_kdtree::KdTreeError {
-    fn into_py_err(self) -> PyErr {
-        match self {
-            hullcap_kdtree::KdTreeError::Worker(e) => PyRuntimeError::new_err(e.to_string()),
-            other => PyValueError::new_err(other.to_string()),
+/// `IntoPyErr` for an engine error type: the variants matching `$engine` (a worker thread
+/// panicked: the engine's fault) become `RuntimeError`, every other one (bad input)
+/// `ValueError`; the message is the error's own.
+macro_rules! input_or_engine_errors {
+    ($($ty:ty => $engine:pat),+ $(,)?) => {$(
+        impl IntoPyErr for $ty {
+            fn into_py_err(self) -> PyErr {
+                if matches!(self, $engine) {
+                    PyRuntimeError::new_err(self.to_string())
+                } else {
+                    PyValueError::new_err(self.to_string())
+                }
+            }
         }
-    }
+    )+};
 }
 
-impl IntoPyErr for hullcap_body::BodyError {
-    fn into_py_err(self) -> PyErr {
-        match self {
-            hullcap_body::BodyError::Worker(e) => PyRuntimeError::new_err(e.to_string()),
-            other => PyValueError::new_err(other.to_string()),
-        }
-    }
+input_or_engine_errors! {
+    KdTreeError => KdTreeError::Worker(_),
+    BodyError => BodyError::Worker(_),
+    RasterError => RasterError::Panicked(_),
+    IcpError => IcpError::Worker(_) | IcpError::Body(BodyError::Worker(_)) | IcpError::Target(KdTreeError::Worker(_)),
 }
 
 /// Runs `f` without the GIL; its error becomes the matching Python exception, and a panic

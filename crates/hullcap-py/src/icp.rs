@@ -2,24 +2,13 @@
 
 use crate::arrays::{self, rows3};
 use crate::body::{Rig, root_pose};
-use crate::call::{IntoPyErr, detached};
-use hullcap_icp::{FitOptions, IcpError, Params, Residual, Solver, Target as EngineTarget};
+use crate::call::detached;
+use hullcap_icp::{FitOptions, Params, Residual, Solver, Target as EngineTarget};
 use hullcap_kdtree::Gate;
 use numpy::{PyArray1, PyArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-
-impl IntoPyErr for IcpError {
-    fn into_py_err(self) -> PyErr {
-        match self {
-            IcpError::Worker(e) => PyRuntimeError::new_err(e.to_string()),
-            IcpError::Body(e) => e.into_py_err(),
-            IcpError::Target(e) => e.into_py_err(),
-            other => PyValueError::new_err(other.to_string()),
-        }
-    }
-}
 
 /// A target surface (points with normals) indexed for correspondences.
 #[pyclass(module = "hullcap._engine", name = "Target", frozen)]

@@ -1,20 +1,9 @@
 //! Z-buffered rasterisation for the renderer of synthetic sequences and the pictures.
 
 use crate::arrays::{self, index_rows, rows3};
-use crate::call::{IntoPyErr, detached};
-use hullcap_raster::RasterError;
+use crate::call::detached;
 use numpy::{PyArray1, PyArrayDyn, PyArrayMethods};
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-
-impl IntoPyErr for RasterError {
-    fn into_py_err(self) -> PyErr {
-        match self {
-            RasterError::Panicked(e) => PyRuntimeError::new_err(e.to_string()),
-            other => PyValueError::new_err(other.to_string()),
-        }
-    }
-}
 
 /// Depth and triangle index per pixel of triangles given in pixel space; see
 /// `hullcap._engine.pyi`.

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
+from hullcap.export._motion import local_motion
 
 __all__ = ["write_bvh", "bvh_skeleton", "zxy_degrees"]
 
@@ -25,7 +26,6 @@ def bvh_skeleton(model):
     every canonical joint, its parent joint, its offset from it at rest (metres) and the
     link whose rotation it carries (−1 for a site)."""
     links = model.link_model
-    joint_of_link = {j: links.joints[j] for j in range(len(links.names))}
     names, parents, offsets, carries = [], [], [], []
     position = {}
     order = sorted(range(len(links.joint_names)), key=lambda i: _depth(links, i))
@@ -35,9 +35,9 @@ def bvh_skeleton(model):
         at_origin = links.joints[link] == name
         if at_origin:
             parent_link = links.parents[link]
-            parent = None if parent_link < 0 else joint_of_link[int(parent_link)]
+            parent = None if parent_link < 0 else links.joints[parent_link]
         else:
-            parent = joint_of_link[link]
+            parent = links.joints[link]
         names.append(name)
         parents.append(-1 if parent is None else names.index(parent))
         position[name] = links.joint_points[i]
@@ -69,24 +69,14 @@ def write_bvh(path, model, root_translation, root_rotation, theta, fps: float) -
     """Write the motion (F frames of root placement and joint angles; failed frames, NaN,
     repeat the last good one) as BVH, atomically."""
     names, parents, offsets, carries = bvh_skeleton(model)
-    frames = len(theta)
-    good = ~np.isnan(np.asarray(theta)).any(1)
-    if not good.any():
-        raise ValueError(f"{path}: no fitted frame to write")
-    last = np.flatnonzero(good)[0]
+    local, root_position = local_motion(path, model, root_translation, root_rotation, theta)
+    frames = len(local)
+    angles = zxy_degrees(local)  # (F, L, 3)
     values = []
     for f in range(frames):
-        last = f if good[f] else last
-        pose = model.pose(theta[last], root_rotation[last], root_translation[last], clamp=False)
-        rot = pose.link_rotations
-        row = list(pose.link_positions[0])
-        for name, parent, link in zip(names, parents, carries):
-            if link < 0:
-                row += [0.0, 0.0, 0.0]
-                continue
-            p_link = model.link_model.parents[link]
-            local = rot[link] if p_link < 0 else rot[p_link].T @ rot[link]
-            row += list(zxy_degrees(local))
+        row = list(root_position[f])
+        for link in carries:
+            row += [0.0, 0.0, 0.0] if link < 0 else list(angles[f, link])
         values.append(row)
     children = {i: [c for c, p in enumerate(parents) if p == i] for i in range(len(names))}
     lines = ["HIERARCHY"]

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
+from hullcap.export._motion import local_motion
 
 __all__ = ["write_glb", "Z_UP_TO_Y_UP"]
 
@@ -71,10 +72,6 @@ def write_glb(path, model, root_translation, root_rotation, theta, fps: float) -
     last good pose) as a glTF 2.0 binary, atomically."""
     links = model.link_model
     n_links = len(links.names)
-    theta = np.asarray(theta, float)
-    good = ~np.isnan(theta).any(1)
-    if not good.any():
-        raise ValueError(f"{path}: no fitted frame to write")
     blob = _Blob()
     # Mesh, in the body frame at rest.
     index, weight = model.skin
@@ -107,18 +104,8 @@ def write_glb(path, model, root_translation, root_rotation, theta, fps: float) -
         nodes.append(node)
     nodes.append({"name": "body", "mesh": 0, "skin": 0})
     # Animation: local rotations of every link, the root's translation.
-    frames = len(theta)
-    last = int(np.flatnonzero(good)[0])
-    local = np.zeros((frames, n_links, 3, 3))
-    root_pos = np.zeros((frames, 3))
-    for f in range(frames):
-        last = f if good[f] else last
-        pose = model.pose(theta[last], root_rotation[last], root_translation[last], clamp=False)
-        rot = pose.link_rotations
-        for j in range(n_links):
-            p = links.parents[j]
-            local[f, j] = rot[j] if p < 0 else rot[p].T @ rot[j]
-        root_pos[f] = pose.link_positions[0]
+    local, root_pos = local_motion(path, model, root_translation, root_rotation, theta)
+    frames = len(local)
     times = blob.add((np.arange(frames) / fps).astype(np.float32), _FLOAT, "SCALAR", bounds=True)
     samplers, channels = [], []
     for j in range(n_links):
