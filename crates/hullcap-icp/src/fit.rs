@@ -366,7 +366,7 @@ impl Fitter<'_> {
     }
 
     /// `params` moved by `delta` on the parameters `active`: t += δt,
-    /// R ← exp([δω]×)·R, θ += δθ, then θ clamped into the joint limits.
+    /// R ← exp([δω]×)·R (kept orthonormal), θ += δθ, then θ clamped into the joint limits.
     fn step(&self, params: &Params, active: &[usize], delta: &DVector<f64>) -> Params {
         let mut out = params.clone();
         let mut omega = Vector3::zeros();
@@ -378,7 +378,14 @@ impl Fitter<'_> {
             }
         }
         if omega != Vector3::zeros() {
-            out.root.rotation = Rotation3::new(omega).into_inner() * out.root.rotation;
+            // Re-orthonormalised: rounding would otherwise build up over the steps of a
+            // fit and, through the tracker's constant-velocity prediction (which
+            // multiplies three fitted rotations), grow from frame to frame.
+            let mut rotation = Rotation3::from_matrix_unchecked(
+                Rotation3::new(omega).into_inner() * out.root.rotation,
+            );
+            rotation.renormalize();
+            out.root.rotation = rotation.into_inner();
         }
         self.problem.rig.skeleton().clamp(&mut out.theta);
         out
@@ -466,6 +473,34 @@ mod tests {
             tolerance: 1e-7,
             ..FitOptions::default()
         });
+    }
+
+    #[test]
+    fn fitted_rotations_stay_orthonormal_through_predicted_starts() {
+        // As tracking does: each fit starts from a constant-velocity prediction
+        // R_b·R_aᵀ·R_b of the last two results, which multiplies their rounding errors.
+        // Without re-orthonormalising in `step`, |RᵀR − I| grew until the input check
+        // refused the pose (seen after ~150 frames of a real sequence).
+        let rig = tube();
+        let target = target_at(&rig, &truth());
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).step_by(4).collect();
+        let options = FitOptions {
+            iterations: 2,
+            rounds: 1,
+            ..FitOptions::default()
+        };
+        let mut previous = start().root.rotation;
+        let mut params = start();
+        for _ in 0..200 {
+            let current = params.root.rotation;
+            params.root.rotation = current * previous.transpose() * current;
+            previous = current;
+            params = fit(&rig, &target, &points, &params, &[vec![0, 1, 2]], &options)
+                .unwrap()
+                .0;
+            let r = params.root.rotation;
+            assert!((r.transpose() * r - nalgebra::Matrix3::identity()).amax() < 1e-12);
+        }
     }
 
     #[test]
