@@ -1,0 +1,95 @@
+"""Accuracy and speed on the development set: realistic bodies driven by real motion.
+
+Renders each sequence once into ``data/devset/`` (ignored by git), tracks it as
+``hullcap track`` does, from the colour frames (background subtraction) and, with
+``--silhouettes exact``, from the exact masks too, and prints one table: per sequence
+the subject model's limb-length errors against the truth, the mean joint error over the
+30 static calibration frames, MPJPE raw and offset-removed over the whole sequence,
+frames lost and frames/s. ``--stills DIR`` also writes an overlay still of each run's
+worst frame.
+
+    .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import devset  # noqa: E402
+
+from hullcap.sequence import Sequence  # noqa: E402
+from hullcap.tracking import Tracker  # noqa: E402
+
+
+def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None) -> dict:
+    seq_path = devset.render(devset_dir, name)
+    seq = Sequence(seq_path)
+    truth = devset.Truth.load(devset_dir, seq_path)
+    tracker = Tracker(seq, use_silhouettes=(mode == "exact"))
+    t0 = time.perf_counter()
+    result = tracker.run(out / f"{name}-{mode}", resume=False, show_progress=True, frames=frames)
+    seconds = time.perf_counter() - t0
+    n = len(result.failed)
+    want = truth.limb_lengths()
+    got = devset.model_limb_lengths(result.model)
+    whole = devset.score(truth, result.model.joint_names, result.joints, result.failed)
+    static = devset.score(truth, result.model.joint_names, result.joints, result.failed,
+                          slice(0, devset.CALIBRATION_FRAMES))
+    err = np.linalg.norm(result.joints[:, [result.model.joint_names.index(j) for j in truth.names]]
+                         - truth.positions[:n], axis=2).mean(1)
+    return {"sequence": name, "silhouettes": mode, "cameras": len(seq.cameras), "frames": n,
+            "limb_error_pct": {k: 100 * (got[k] - want[k]) / want[k] for k in want},
+            "static_mm": static.mpjpe_mm, "mpjpe_mm": whole.mpjpe_mm,
+            "mpjpe_offset_removed_mm": whole.mpjpe_offset_removed_mm, "lost": whole.lost,
+            "fps": n / seconds, "fit_fps": n / max(result.seconds.get("fit", 0.0), 1e-9),
+            "worst_frame": int(np.nanargmax(np.where(result.failed, -1, err))),
+            "per_joint_mm": whole.per_joint_mm}
+
+
+def table(rows: list[dict]) -> str:
+    limbs = list(devset.LIMBS)
+    head = ("| sequence | cams | silhouettes | " + " | ".join(f"{l} (%)" for l in limbs)
+            + " | static (mm) | MPJPE raw (mm) | offset removed (mm) | lost | frames/s | fit frames/s |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        lines.append(f"| {r['sequence']} | {r['cameras']} | {r['silhouettes']} | "
+                     + " | ".join(f"{r['limb_error_pct'][l]:+.1f}" for l in limbs)
+                     + f" | {r['static_mm']:.1f} | {r['mpjpe_mm']:.1f} | {r['mpjpe_offset_removed_mm']:.1f} | "
+                       f"{r['lost']} of {r['frames']} | {r['fps']:.1f} | {r['fit_fps']:.1f} |")
+    return "\n".join(lines)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--devset", help="the development set's folder (default $HULLCAP_DEVSET or ../shared/devset)")
+    ap.add_argument("--only", nargs="+", help="these sequences only")
+    ap.add_argument("--silhouettes", nargs="+", choices=["colour", "exact"], default=["colour"])
+    ap.add_argument("--frames", type=int, help="track only the first N frames of each")
+    ap.add_argument("--out", default=str(devset.CACHE / "results"), help="where the runs are written")
+    ap.add_argument("--json", help="also write the rows as JSON here")
+    args = ap.parse_args()
+    devset_dir = devset.find(args.devset)
+    if devset_dir is None:
+        ap.error("the development set is not here: pass --devset or set HULLCAP_DEVSET")
+    rows = []
+    for name in args.only or devset.names(devset_dir):
+        for mode in args.silhouettes:
+            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames))
+            print(table(rows[-1:]).splitlines()[-1], flush=True)
+    print("\n" + table(rows))
+    print("\nper joint, raw (mm):")
+    for r in rows:
+        print(f"  {r['sequence']} / {r['silhouettes']}: " + ", ".join(f"{k} {v}" for k, v in r["per_joint_mm"].items()))
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1))
+
+
+if __name__ == "__main__":
+    main()
