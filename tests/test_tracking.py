@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from hullcap import BodyModel, PoseParameters, Surface, Tracker, fit
+from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, fit
 from hullcap.cameras import ring
 from hullcap.cli import main
 from hullcap.evaluate import accuracy
@@ -33,7 +33,7 @@ def test_a_perturbed_pose_is_recovered_from_the_exact_mesh(model, options):
     posed = model.pose(truth.theta, truth.root_rotation, truth.root_translation)
     start = PoseParameters(np.clip(theta + rng.normal(0, 0.1, 29), lim[:, 0], lim[:, 1]),
                            turn(0.68), truth.root_translation + (0.03, -0.02, 0.02))
-    result = fit(model, Surface(posed.vertices, model.faces, posed.normals), start, **options)
+    result = fit(model, Surface(posed.vertices, model.faces, posed.normals), start, FitOptions(**options))
     got = model.pose(result.pose.theta, result.pose.root_rotation, result.pose.root_translation)
     assert np.linalg.norm(got.joints - posed.joints, axis=1).max() < 0.002
     assert result.inlier_fraction > 0.99 and result.mean_residual < 0.002
@@ -121,10 +121,11 @@ def test_command_line_synth_then_track(tmp_path, capsys):
 @pytest.mark.parametrize("rest_mesh", ["template", "hull"])
 def test_subject_model_is_built_from_the_first_hull(short_sequence, rest_mesh):
     from hullcap import build_subject, visual_hull
+    from hullcap.subject import SubjectOptions
 
     seq = Sequence(short_sequence)
     hull = visual_hull(seq.masks(0), seq.cameras)
-    subject = build_subject(hull, rest_mesh=rest_mesh)
+    subject = build_subject(hull, options=SubjectOptions(rest_mesh=rest_mesh))
     truth = np.load(short_sequence / "truth" / "joints.npz")["positions"][0]
     joints = subject.model.pose(subject.pose.theta, subject.pose.root_rotation, subject.pose.root_translation).joints
     assert np.linalg.norm(joints - truth, axis=1).mean() < 0.025
@@ -134,4 +135,4 @@ def test_subject_model_is_built_from_the_first_hull(short_sequence, rest_mesh):
     else:
         assert len(subject.model.vertices) == len(BodyModel.template().vertices)
     with pytest.raises(ValueError, match="rest_mesh must be"):
-        build_subject(hull, rest_mesh="clay")
+        SubjectOptions(rest_mesh="clay")

@@ -8,7 +8,7 @@ Rust engine, ``hullcap._engine``; everything exported here validates its input a
 from hullcap._engine import NormalKDTree, __version__, skin_weights
 from hullcap.body import BodyModel, Pose
 from hullcap.cameras import Camera, Cameras
-from hullcap.fitting import FitResult, PoseParameters, fit
+from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit
 from hullcap.hull import visual_hull
 from hullcap.links import LinkModel
 from hullcap.mesh import Surface, read_mesh, write_mesh
@@ -20,6 +20,7 @@ __all__ = [
     "BodyModel",
     "Camera",
     "Cameras",
+    "FitOptions",
     "FitResult",
     "LinkModel",
     "NormalKDTree",

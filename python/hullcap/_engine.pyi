@@ -1,5 +1,7 @@
 """Type stubs of the Rust extension module ``hullcap._engine``."""
 
+from typing import Literal, final
+
 import numpy as np
 import numpy.typing as npt
 
@@ -179,3 +181,100 @@ def rasterize(
         ``(depth, face)``: (height, width) float32 depth of the nearest surface (inf where
         none) and int32 index of the triangle seen (-1 where none).
     """
+
+class FitOptions:
+    """Options of ``fit`` and ``fit_shape``; defaults are the engine's own. Distances in
+    metres, angles in radians. Fields can be set; ``replace(**changes)`` returns a checked
+    copy, and every value is checked again when a fit uses it (``ValueError`` naming the
+    field)."""
+
+    residual: Literal["point_to_point", "point_to_plane"]
+    solver: Literal["lm", "cg"]
+    max_distance: float
+    """Largest distance of an accepted pair, both directions."""
+    max_angle: float
+    """Largest angle between the normals of an accepted pair (radians)."""
+    sigma_min: float
+    """Lower bound of the Lorentzian's robust scale σ (metres)."""
+    reverse_weight: float
+    """Weight of the hull→model pairs against the model→hull pairs (0 = the paper's
+    one-sided energy)."""
+    reverse_points: int
+    """Hull points that seek a model partner, spread evenly over the target."""
+    model_points: int
+    """Model vertices that seek partners when the caller names none (spread evenly)."""
+    iterations: int
+    tolerance: float
+    rounds: int
+    hierarchical: bool
+    polish: bool
+    inlier_distance: float
+    threads: int | None
+    def __init__(self, **changes: object) -> None: ...
+    def replace(self, **changes: object) -> FitOptions: ...
+    def to_dict(self) -> dict[str, object]: ...
+
+@final
+class Target:
+    """A target surface (points with outward normals) indexed for correspondences by the
+    normal-aware 6-D kd-tree; ``normal_weight`` is λ (default: the paper's balance)."""
+
+    def __init__(self, points: ArrayLike3, normals: ArrayLike3, normal_weight: float | None = None) -> None: ...
+    def __len__(self) -> int: ...
+    @property
+    def normal_weight(self) -> float: ...
+
+Pose = tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
+"""(theta (D,), root rotation (3, 3), root translation (3,))."""
+
+def fit(
+    rig: Rig,
+    target: Target,
+    theta: list[float],
+    root_rotation: npt.ArrayLike,
+    root_translation: npt.ArrayLike,
+    groups: list[list[int]],
+    options: FitOptions,
+    model_points: list[int] | None = None,
+) -> tuple[Pose, dict[str, float]]:
+    """Robust articulated ICP from a starting pose; ``groups`` are the DOF indices of each
+    hierarchical stage after the root. Returns the fitted pose and its statistics
+    (iterations, rounds, energy, inlier_fraction, mean_residual, coverage,
+    mean_reverse_residual, sigma)."""
+
+@final
+class Shape:
+    """A rig whose proportions are parameters: per parameter, the ``(link, (3, 3))``
+    stretches, ``(link, (3,))`` shifts and ``(link, (3,))`` centre moves one unit of it
+    makes (see ``hullcap.shape``)."""
+
+    def __init__(
+        self,
+        rig: Rig,
+        stretches: list[list[tuple[int, npt.ArrayLike]]],
+        shifts: list[list[tuple[int, npt.ArrayLike]]],
+        centres: list[list[tuple[int, npt.ArrayLike]]],
+    ) -> None: ...
+    @property
+    def n_params(self) -> int: ...
+    def rest(self, shape: list[float]) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """(joint centres (L, 3), rest vertices (V, 3)) at ``shape``, body frame."""
+    def map_points(self, shape: list[float], links: list[int], points: ArrayLike3) -> npt.NDArray[np.float64]:
+        """Rest points bound to ``links`` moved with their link's surface at ``shape``."""
+
+def fit_shape(
+    shape: Shape,
+    initial_shape: list[float],
+    targets: list[Target],
+    thetas: list[list[float]],
+    root_rotations: list[npt.ArrayLike],
+    root_translations: list[npt.ArrayLike],
+    prior_sigma: list[float],
+    prior_distance: float,
+    options: FitOptions,
+    model_points: list[int] | None = None,
+) -> tuple[npt.NDArray[np.float64], list[Pose], list[dict[str, float]], int]:
+    """One shape vector and one pose per target fitted together (Levenberg–Marquardt on
+    the sum of the targets' robust energies plus a Gaussian prior on the shape, one
+    standard deviation ``prior_sigma[p]`` worth ``prior_distance`` metres of every pair).
+    Returns the shape, the poses, each target's statistics and the iterations made."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 import io
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +19,7 @@ from hullcap._engine import Rig, skin_weights
 from hullcap._files import atomic_write
 from hullcap.links import DATA, LinkModel
 from hullcap.mesh import vertex_normals
+from hullcap.shape import ShapeBasis
 
 __all__ = ["BodyModel", "Pose", "ROOT_DOF_NAMES"]
 
@@ -102,16 +103,34 @@ class BodyModel:
 
     def scaled(self, lengths: dict | None = None, girths: dict | None = None) -> BodyModel:
         """The body with per-segment proportions: link j stretched by ``lengths[name]``
-        along its segment and ``girths[name]`` across it (see
-        :meth:`LinkModel.scaled_transforms`). Vertices follow their links by their skin
-        weights; the weights are kept (call :meth:`reskinned` to recompute them)."""
-        s, o_old, o_new = self._links.scaled_transforms(lengths, girths)
-        index, weight = self._skin
-        v = self._vertices
-        moved = np.einsum("vkij,vkj->vki", s[index], v[:, None, :] - o_old[index]) + o_new[index]
-        vertices = np.einsum("vk,vki->vi", weight, moved)
-        return BodyModel(self._links.scaled(lengths, girths), vertices, self._faces,
-                         skin=self._skin, b=self._b, k=self._k)
+        along its segment and ``girths[name]`` across it, about its joint centre; the
+        joints below it move with it. Vertices follow their links by their skin weights;
+        the weights are kept (call :meth:`reskinned` to recompute them)."""
+        return self.shaped(*ShapeBasis.scales(self._links, lengths, girths))
+
+    def shaped(self, basis: ShapeBasis, shape) -> BodyModel:
+        """The body at shape vector `shape` of `basis` (:mod:`hullcap.shape`): joint
+        centres, link segments, sites and vertices moved by the engine's linear shape
+        model. The skin weights are kept (call :meth:`reskinned` to recompute them)."""
+        shape = _array(shape, "shape", np.float64, (len(basis),)).tolist()
+        engine = basis.engine(self._rig)
+        links = self._links
+        origins, vertices = engine.rest(shape)
+
+        def move(points, owners):
+            flat = np.asarray(points, float).reshape(-1, 3)
+            return engine.map_points(shape, np.broadcast_to(owners, points.shape[:-1]).ravel().tolist(),
+                                     flat).reshape(points.shape)
+
+        # A link's joint is the centre it turns about; a site moves with its link's surface.
+        joint_points = move(links.joint_points, links.joint_links)
+        for i, name in enumerate(links.joint_names):
+            if name in links.joints:
+                joint_points[i] = origins[links.joints.index(name)]
+        moved = replace(links, origins=origins, joint_points=joint_points,
+                        segments=move(links.segments, np.arange(len(links.names))[:, None]),
+                        structure_segments=move(links.structure_segments, links.structure_links[:, None]))
+        return BodyModel(moved, vertices, self._faces, skin=self._skin, b=self._b, k=self._k)
 
     # -- what it is ---------------------------------------------------------------------
 

@@ -8,10 +8,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hullcap import _engine
+from hullcap._engine import FitOptions
 from hullcap.body import BodyModel
 from hullcap.mesh import Surface
 
-__all__ = ["PoseParameters", "FitResult", "fit", "make_target", "yaw_rotation"]
+__all__ = ["FitOptions", "FitResult", "PoseParameters", "fit", "make_target", "yaw_rotation"]
 
 
 def yaw_rotation(angle: float) -> np.ndarray:
@@ -45,7 +46,19 @@ class PoseParameters:
 
 @dataclass(frozen=True)
 class FitResult:
-    """A fitted pose with the fit's statistics (see :func:`fit`)."""
+    """A fitted pose with the fit's statistics (see :func:`fit`).
+
+    Attributes:
+        pose: the fitted pose.
+        iterations, rounds: ICP iterations (correspondence updates) and hierarchical passes.
+        energy: the final robust energy.
+        inlier_fraction: model points with a hull partner within ``inlier_distance``.
+        mean_residual: mean model→hull pair distance (metres).
+        coverage: hull samples with a model partner within ``inlier_distance``: how much
+            of the hull the model explains.
+        mean_reverse_residual: mean hull→model pair distance (metres).
+        sigma: the final robust scale σ (metres).
+    """
 
     pose: PoseParameters
     iterations: int
@@ -53,6 +66,8 @@ class FitResult:
     energy: float
     inlier_fraction: float
     mean_residual: float
+    coverage: float
+    mean_reverse_residual: float
     sigma: float
 
 
@@ -70,17 +85,8 @@ def make_target(surface: Surface, normal_weight: float | None = DEFAULT_NORMAL_W
     return _engine.Target(surface.vertices, surface.normals, normal_weight)
 
 
-def default_model_points(model: BodyModel, count: int = 1500) -> np.ndarray:
-    """About `count` model vertices spread over the mesh (every n-th vertex)."""
-    n = len(model.vertices)
-    return np.arange(0, n, max(1, n // count), dtype=np.int64)
-
-
-def fit(model: BodyModel, target, initial: PoseParameters, *, model_points=None,
-        residual: str = "point_to_point", solver: str = "lm", hierarchical: bool = True,
-        polish: bool = True, max_distance: float = 0.15, max_angle_deg: float = 60.0,
-        sigma_min: float = 0.004, iterations: int = 10, tolerance: float = 1e-3, rounds: int = 4,
-        inlier_distance: float = 0.02, threads: int | None = None) -> FitResult:
+def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions | None = None,
+        model_points=None) -> FitResult:
     """Fit `model` to `target` from `initial` by robust articulated ICP.
 
     Args:
@@ -88,34 +94,22 @@ def fit(model: BodyModel, target, initial: PoseParameters, *, model_points=None,
         target: a :class:`~hullcap.mesh.Surface` (its vertices and outward normals) or a
             target made by :func:`make_target`.
         initial: the starting pose (e.g. the previous frame's, or a prediction).
+        options: a :class:`FitOptions` (residual, solver, gates, robust scale, two-sided
+            weight, schedule); default ``FitOptions()``.
         model_points: indices of the model vertices that seek partners (default: about
-            1 500 spread over the mesh).
-        residual: ``"point_to_point"`` (the paper) or ``"point_to_plane"``.
-        solver: ``"lm"`` (Levenberg–Marquardt) or ``"cg"`` (the paper's conjugate gradients).
-        hierarchical: root, then the joint groups of the link model from the torso
-            outwards, repeated until the energy settles (the paper); else all at once.
-        polish: finish a hierarchical fit with one stage on all parameters.
-        max_distance, max_angle_deg: correspondence gates (metres, degrees).
-        sigma_min: lower bound of the robust scale σ (metres).
-        iterations: most ICP iterations per stage; tolerance: relative energy change at
-            which a stage (and the schedule) stops; rounds: most hierarchical passes.
-        inlier_distance: a matched model point within this distance is an inlier.
+            ``options.model_points`` spread over the mesh).
 
     Returns:
-        A :class:`FitResult`: the pose, iterations, rounds, final energy, inlier fraction,
-        mean residual (metres) and σ.
+        A :class:`FitResult`.
     """
     if isinstance(target, Surface):
         target = make_target(target)
-    pts = default_model_points(model) if model_points is None else np.asarray(model_points, np.int64)
+    options = FitOptions() if options is None else options
     theta = np.asarray(initial.theta, float)
     if theta.shape != (model.n_dofs,):
         raise ValueError(f"initial.theta must have {model.n_dofs} angles, got shape {theta.shape}")
+    points = None if model_points is None else np.asarray(model_points, np.int64).tolist()
     groups = [list(g) for g in model.link_model.hierarchy]
-    th, R, t, stats = _engine.fit(
-        model._rig, target, pts.tolist(), theta.tolist(), np.asarray(initial.root_rotation, float),
-        np.asarray(initial.root_translation, float), groups, residual=residual, solver=solver,
-        max_distance=max_distance, max_angle=np.radians(max_angle_deg), sigma_min=sigma_min,
-        iterations=iterations, tolerance=tolerance, rounds=rounds, hierarchical=hierarchical,
-        polish=polish, inlier_distance=inlier_distance, threads=threads)
+    (th, R, t), stats = _engine.fit(model._rig, target, theta.tolist(), np.asarray(initial.root_rotation, float),
+                                    np.asarray(initial.root_translation, float), groups, options, points)
     return FitResult(PoseParameters(th, R, t), **stats)

@@ -8,7 +8,7 @@ the sign conventions. All positions are in the body frame at rest.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -122,50 +122,6 @@ class LinkModel:
     def clamp(self, theta) -> np.ndarray:
         """`theta` (…, D) clamped into the joint limits."""
         return np.clip(theta, self.dof_limits[:, 0], self.dof_limits[:, 1])
-
-    def scaled_transforms(self, lengths: dict | None = None, girths: dict | None = None):
-        """Per-link affine maps of the rest body for per-segment proportions.
-
-        Link j's segment is stretched by ``lengths[name]`` along its direction and by
-        ``girths[name]`` across it, about its joint centre; the joint centres of its
-        children move with it. Unnamed links keep scale 1.
-
-        Returns:
-            ``(S, o_old, o_new)``: (L, 3, 3) linear parts, (L, 3) old and new origins; a rest
-            point x bound to link j maps to ``o_new[j] + S[j] @ (x - o_old[j])``.
-        """
-        lengths, girths = dict(lengths or {}), dict(girths or {})
-        for name in list(lengths) + list(girths):
-            if name not in self.names:
-                raise ValueError(f"scaling names unknown link {name!r}; links are {list(self.names)}")
-        for label, table in (("length", lengths), ("girth", girths)):
-            for name, s in table.items():
-                if not (np.isfinite(s) and 0.2 <= s <= 5.0):
-                    raise ValueError(f"{label} scale of {name!r} must be in [0.2, 5], got {s}")
-        n = len(self.names)
-        scale = np.zeros((n, 3, 3))
-        new_origin = self.origins.copy()
-        for j, name in enumerate(self.names):
-            u = self.segments[j, 1] - self.segments[j, 0]
-            u /= np.linalg.norm(u)
-            along = np.outer(u, u)
-            scale[j] = lengths.get(name, 1.0) * along + girths.get(name, 1.0) * (np.eye(3) - along)
-            p = self.parents[j]
-            if p >= 0:
-                new_origin[j] = new_origin[p] + scale[p] @ (self.origins[j] - self.origins[p])
-        return scale, self.origins.copy(), new_origin
-
-    def scaled(self, lengths: dict | None = None, girths: dict | None = None) -> LinkModel:
-        """The same model with per-segment proportions (see :meth:`scaled_transforms`)."""
-        s, o_old, o_new = self.scaled_transforms(lengths, girths)
-
-        def move(points, links):
-            return np.einsum("...ij,...j->...i", s[links], points - o_old[links]) + o_new[links]
-
-        segs = move(self.segments, np.arange(len(self.names))[:, None])
-        struct = move(self.structure_segments, self.structure_links[:, None])
-        return replace(self, origins=o_new, segments=segs, structure_segments=struct,
-                       joint_points=move(self.joint_points, self.joint_links))
 
 
 def _parse(spec: dict, source: str) -> LinkModel:

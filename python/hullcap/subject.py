@@ -1,190 +1,182 @@
-"""The subject's own body model, built automatically from the first frame (DESIGN.md §8).
+"""The subject's own body model, fitted to the calibration frames (docs/design.md, "The
+subject's model").
 
-The first frame shows the calibration pose. The template body is placed in the hull
-(height from the hull, heading from the spread arms, both facing directions tried),
-then pose and per-segment proportions are fitted in turn: each pass fits the pose by
-ICP and re-estimates every segment's length and girth scale from where the hull
-points matched to that segment's vertices lie in the segment's own frame (least squares
-along and across the bone; left and right sides averaged). The subject's rest mesh is
-the scaled template (clean topology, default) or the hull itself brought back to the
-rest pose (the paper's way); its skin weights are computed afresh.
+The template is placed in the first hull by a small global search (its centre, headings
+all round, the best few refined), then its proportions — a shape vector of
+:class:`~hullcap.shape.ShapeBasis`: an overall scale, a length and a girth per segment,
+the hips' lateral place — and the pose of every calibration frame are fitted together
+as the minimum of the same two-sided robust energy that tracking uses, plus a Gaussian
+prior that keeps proportions no frame shows at the template's. The subject's rest mesh is
+the template at that shape (clean topology, default) or the hull itself brought back to
+the rest pose (the paper's way); its skin weights are computed afresh.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from hullcap._engine import NormalKDTree
+from hullcap import _engine
+from hullcap._engine import FitOptions, NormalKDTree
 from hullcap.body import BodyModel
 from hullcap.fitting import FitResult, PoseParameters, fit, make_target
 from hullcap.mesh import Surface
+from hullcap.shape import ShapeBasis, ShapeParameter
 
-__all__ = ["SubjectFit", "build_subject", "place_model"]
+__all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model"]
 
-SCALE_RANGE = (0.6, 1.6)
-CHAINS = (("l_upper_arm", "l_forearm"), ("r_upper_arm", "r_forearm"), ("l_thigh", "l_shin"),
-          ("r_thigh", "r_shin"))
-"""Limbs whose segments share one length scale."""
-LEGS = ("l_thigh", "l_shin", "r_thigh", "r_shin")
-UNMEASURED_LENGTHS = ("pelvis", "head", "l_clavicle", "r_clavicle", "l_foot", "r_foot")
-"""Links whose length keeps the overall scale."""
+
+@dataclass(frozen=True)
+class SubjectOptions:
+    """Every number the subject model depends on.
+
+    Attributes:
+        length_sigma: prior standard deviation of a segment's length relative to the
+            template at the subject's overall scale (0.15 = 15 %): adult segment-length
+            ratios vary by about that much, and a static pose cannot show some of them
+            (where the elbow sits along a straight arm).
+        girth_sigma: the same for girths (0.25: girth varies more than length).
+        shift_sigma: prior standard deviation of a joint shift, metres (the hips' lateral
+            place: a few centimetres between people).
+        centre_sigma: prior standard deviation of a joint centre's place inside its limb
+            against the template's, metres: only frames where the joint bends move it.
+        scale_sigma: prior standard deviation of the overall scale against the template
+            (0.5: a 1.75 m template covers children of 0.9 m to adults of 2.6 m within 1σ).
+        prior_distance: metres of pair distance one prior standard deviation is worth
+            (see ``hullcap_icp::ShapePrior``): 3 mm, about a voxel's error, so that what
+            the hulls do show wins over the prior.
+        headings: placements tried in the first hull, evenly spaced about the vertical.
+        keep: the best placements (by coverage and inliers after a quick fit) refined.
+        iterations: most Levenberg–Marquardt iterations of the shape fit.
+        rest_mesh: ``"template"`` (the template at the fitted shape) or ``"hull"`` (the
+            first hull brought to the rest pose, the paper's way).
+        fit: options of the pose fits and of the shape fit; the two-sided energy matters
+            here: only hull→model pairs pull a limb that is too short out to the hull's end.
+    """
+
+    length_sigma: float = 0.15
+    girth_sigma: float = 0.25
+    shift_sigma: float = 0.03
+    centre_sigma: float = 0.03
+    scale_sigma: float = 0.5
+    prior_distance: float = 0.003
+    headings: int = 8
+    keep: int = 3
+    iterations: int = 40
+    rest_mesh: str = "template"
+    fit: FitOptions = field(default_factory=lambda: FitOptions(reverse_weight=1.0))
+
+    def __post_init__(self):
+        if self.rest_mesh not in ("template", "hull"):
+            raise ValueError(f"rest_mesh must be 'template' or 'hull', got {self.rest_mesh!r}")
+        for name in ("length_sigma", "girth_sigma", "shift_sigma", "centre_sigma", "scale_sigma"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"SubjectOptions.{name} must be positive, got {getattr(self, name)}")
+        if not (self.prior_distance >= 0 and self.headings >= 1 and self.keep >= 1 and self.iterations >= 1):
+            raise ValueError("SubjectOptions: prior_distance must be >= 0, headings, keep, iterations >= 1")
+
+    def basis(self, links) -> ShapeBasis:
+        """The shape parameters: an overall scale, then :meth:`ShapeBasis.standard`."""
+        every = tuple((j, np.eye(3)) for j in range(len(links.names)))
+        overall = ShapeParameter("scale:all", every, sigma=self.scale_sigma)
+        standard = ShapeBasis.standard(links, self.length_sigma, self.girth_sigma, self.shift_sigma,
+                                       self.centre_sigma)
+        return ShapeBasis((overall,) + standard.parameters)
 
 
 @dataclass(frozen=True)
 class SubjectFit:
-    """The subject's model and its pose in the first frame.
+    """The subject's model and its fitted poses.
 
     Attributes:
-        model: the subject's body model (rest mesh in the calibration rest pose).
-        pose: its fitted pose in the frame it was built from.
-        lengths, girths: per-link scales relative to the template.
-        fit: the final fit's statistics.
+        model: the subject's body model.
+        pose: its pose in the first calibration frame.
+        poses: its pose in every calibration frame given.
+        basis, shape: the shape parameters and their fitted values (the model is the
+            template at that shape, re-skinned).
+        fit: the first frame's fit statistics with the final model.
     """
 
     model: BodyModel
     pose: PoseParameters
-    lengths: dict
-    girths: dict
+    poses: tuple
+    basis: ShapeBasis
+    shape: np.ndarray
     fit: FitResult
 
 
-def build_subject(hull: Surface, template: BodyModel | None = None, passes: int = 4,
-                  rest_mesh: str = "template", threads: int | None = None) -> SubjectFit:
-    """Fit the template to the first frame's hull and return the subject's model.
+def build_subject(hulls, poses=None, template: BodyModel | None = None,
+                  options: SubjectOptions | None = None) -> SubjectFit:
+    """Fit the template's proportions and poses to the hulls of calibration frames.
 
     Args:
-        hull: the visual hull of a frame showing the calibration pose (z up, floor z = 0).
+        hulls: a :class:`~hullcap.mesh.Surface`, or several (frames of the calibration
+            pose and of the first motion; the first is where the model is placed).
+        poses: a starting pose per hull (e.g. from tracking with an earlier model);
+            default: the placement found in the first hull, for every hull.
         template: the body to start from (default: :meth:`BodyModel.template`).
-        passes: pose/proportion alternations.
-        rest_mesh: ``"template"`` (the scaled template) or ``"hull"`` (the hull mesh
-            brought to the rest pose by inverse skinning, as in the paper).
+        options: see :class:`SubjectOptions`.
     """
-    if rest_mesh not in ("template", "hull"):
-        raise ValueError(f"rest_mesh must be 'template' or 'hull', got {rest_mesh!r}")
+    options = options or SubjectOptions()
+    hulls = [hulls] if isinstance(hulls, Surface) else list(hulls)
+    if not hulls:
+        raise ValueError("build_subject needs at least one hull")
+    if poses is not None and len(poses) != len(hulls):
+        raise ValueError(f"{len(poses)} starting poses for {len(hulls)} hulls")
     template = template or BodyModel.template()
-    v = hull.vertices
-    s = float(np.clip(np.ptp(v[:, 2]) / np.ptp(template.vertices[:, 2]), *SCALE_RANGE))
-    names = template.link_model.names
-    lengths = dict.fromkeys(names, s)
-    girths = dict.fromkeys(names, s)
-    model = template.scaled(lengths, girths)
-    target = make_target(hull)
-    best = place_model(model, hull, target, threads)
-    tree = NormalKDTree(hull.vertices, hull.normals)
-    leg = _leg_scale(template, best.pose, hull)
-    for _ in range(passes):
-        rel_len, rel_girth = _segment_scales(model, best.pose, tree, hull)
-        if leg is not None:
-            for name in LEGS:
-                rel_len[name] = leg / lengths[name]
-        for name in names:
-            lengths[name] = float(np.clip(lengths[name] * rel_len.get(name, 1.0), *SCALE_RANGE))
-            girths[name] = float(np.clip(girths[name] * rel_girth.get(name, 1.0), *SCALE_RANGE))
-        model = template.scaled(lengths, girths)
-        best = fit(model, target, best.pose, threads=threads)
-    if rest_mesh == "hull":
-        model = _hull_at_rest(model, best.pose, hull)
+    basis = options.basis(template.link_model)
+    shape0 = np.zeros(len(basis))
+    shape0[0] = _height(hulls[0].vertices) / _height(template.vertices) - 1.0
+    targets = [make_target(h) for h in hulls]
+    if poses is None:
+        start = place_model(template.shaped(basis, shape0), hulls[0], targets[0], options)
+        poses = [start.pose] * len(hulls)
+    engine = basis.engine(template._rig)
+    rotations = [np.asarray(p.root_rotation, float) for p in poses]
+    translations = [np.asarray(p.root_translation, float) for p in poses]
+    found, fitted, _, _ = _engine.fit_shape(
+        engine, shape0.tolist(), targets, [np.asarray(p.theta, float).tolist() for p in poses],
+        rotations, translations, basis.sigma.tolist(), options.prior_distance,
+        options.fit.replace(iterations=options.iterations, tolerance=1e-4))
+    shaped = template.shaped(basis, found)
+    fitted_poses = [PoseParameters(*p) for p in fitted]
+    if options.rest_mesh == "hull":
+        model = _hull_at_rest(shaped, fitted_poses[0], hulls[0])
     else:
-        model = model.reskinned()
-    final = fit(model, target, best.pose, threads=threads)
-    return SubjectFit(model, final.pose, lengths, girths, final)
+        model = shaped.reskinned()
+    final = fit(model, targets[0], fitted_poses[0], options.fit)
+    return SubjectFit(model, final.pose, (final.pose, *fitted_poses[1:]), basis, np.asarray(found), final)
 
 
-def place_model(model: BodyModel, hull: Surface, target=None, threads: int | None = None) -> FitResult:
-    """Fit `model` to a hull of the calibration pose with no pose to start from: the rest
-    pose stood on the hull's floor at its centre, turned so the arms lie along the hull's
-    arm axis, facing either way along it; the better of the two fits."""
+def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOptions | None = None) -> FitResult:
+    """Fit `model` to a hull with no pose to start from: the rest pose stood on the hull's
+    floor at its centre, turned to ``options.headings`` headings; each is fitted briefly,
+    the ``options.keep`` that explain most of the hull both ways are fitted fully, and the
+    best of those is returned."""
+    options = options or SubjectOptions()
     v = hull.vertices
-    floor, height = v[:, 2].min(), np.ptp(v[:, 2])
     target = target if target is not None else make_target(hull)
     centre = np.median(v[:, :2], 0)
-    yaw = _arm_axis_yaw(v, floor, height)
-    best = None
-    for heading in (yaw, yaw + np.pi):
-        start = PoseParameters.rest(model, (centre[0], centre[1], floor + model.rest_root_height), heading)
-        result = fit(model, target, start, threads=threads)
-        if best is None or result.energy < best.energy:
-            best = result
-    return best
+    root = (centre[0], centre[1], v[:, 2].min() + model.rest_root_height)
+    quick = options.fit.replace(rounds=1, polish=False)
+    tried = []
+    for yaw in np.arange(options.headings) * 2 * np.pi / options.headings:
+        result = fit(model, target, PoseParameters.rest(model, root, yaw), quick)
+        tried.append((_score(result), result))
+    tried.sort(key=lambda t: t[0], reverse=True)
+    refined = [fit(model, target, r.pose, options.fit) for _, r in tried[: options.keep]]
+    return max(refined, key=_score)
 
 
-def _crotch_height(points, floor) -> float | None:
-    """Height above `floor` of the top of the gap between the legs: the lowest surface
-    point within 1.5 cm of the body's mid-plane (x = 0 in body coordinates) above knee
-    height; None when the legs touch (no gap)."""
-    mid = points[(np.abs(points[:, 0]) < 0.015) & (points[:, 2] > floor + 0.3)]
-    if len(mid) == 0:
-        return None
-    lowest = mid[:, 2].min() - floor
-    return float(lowest) if lowest < 0.65 * (points[:, 2].max() - floor) else None
+def _score(result: FitResult) -> float:
+    """How well a fit explains the hull both ways (1 + 1 = every point within the inlier
+    distance)."""
+    return result.inlier_fraction + result.coverage
 
 
-def _leg_scale(template: BodyModel, pose: PoseParameters, hull: Surface) -> float | None:
-    """Leg length scale from the crotch height, the one place in a calibration pose that
-    shows how long the legs are (the hips themselves are hidden in the pelvis)."""
-    body = (hull.vertices - pose.root_translation) @ pose.root_rotation  # body frame
-    floor_body = float(((np.array([0, 0, hull.vertices[:, 2].min()]) - pose.root_translation) @ pose.root_rotation)[2])
-    ours = _crotch_height(body, floor_body)
-    rest = template.vertices
-    theirs = _crotch_height(rest, rest[:, 2].min())
-    if ours is None or theirs is None:
-        return None
-    return float(np.clip(ours / theirs, *SCALE_RANGE))
-
-
-def _arm_axis_yaw(v, floor, height) -> float:
-    """Heading (yaw of the body's x axis) from the principal horizontal direction of the
-    hull at shoulder height, where the spread arms reach furthest."""
-    band = v[(v[:, 2] > floor + 0.75 * height) & (v[:, 2] < floor + 0.88 * height)]
-    if len(band) < 10:
-        return 0.0
-    xy = band[:, :2] - band[:, :2].mean(0)
-    _, _, vt = np.linalg.svd(xy, full_matrices=False)
-    return float(np.arctan2(vt[0, 1], vt[0, 0]))
-
-
-def _segment_scales(model: BodyModel, pose: PoseParameters, tree: NormalKDTree, hull: Surface):
-    """Relative length and girth scale per link from the hull points matched to the
-    vertices each link carries most."""
-    posed = model.pose(pose.theta, pose.root_rotation, pose.root_translation)
-    idx, _ = tree.query(posed.vertices, posed.normals, max_distance=0.08, max_angle=np.radians(45))
-    index, weight = model.skin
-    links = model.link_model
-    rest = model.vertices
-    rel_len, rel_girth = {}, {}
-    for j, name in enumerate(links.names):
-        sel = (index[:, 0] == j) & (weight[:, 0] > 0.8) & (idx >= 0)
-        if sel.sum() < 30:
-            continue
-        seg = links.segments[j]
-        u = (seg[1] - seg[0]) / np.linalg.norm(seg[1] - seg[0])
-        a = rest[sel] - links.origins[j]
-        # Matched hull points in the link's rest frame (undo its world rotation).
-        q = hull.vertices[idx[sel]]
-        b = (q - posed.link_positions[j]) @ posed.link_rotations[j]
-        a_par, b_par = a @ u, b @ u
-        a_perp, b_perp = a - np.outer(a_par, u), b - np.outer(b_par, u)
-        if np.ptp(a_par) > 0.05:  # the segment is long enough to measure along
-            rel_len[name] = float(np.clip((a_par @ b_par) / (a_par @ a_par), 0.8, 1.25))
-        rel_girth[name] = float(np.clip(np.sum(a_perp * b_perp) / np.sum(a_perp * a_perp), 0.8, 1.25))
-    for table in (rel_len, rel_girth):
-        for name in list(table):
-            if name.startswith("l_") and "r_" + name[2:] in table:
-                mean = 0.5 * (table[name] + table["r_" + name[2:]])
-                table[name] = table["r_" + name[2:]] = mean
-    # In a static pose with straight limbs, where the elbow or knee sits along the limb,
-    # and where the hips sit in the pelvis, cannot be seen: limbs get one length scale
-    # (their segments keep the template's ratio) and unobservable lengths none.
-    for chain in CHAINS:
-        found = [rel_len[n] for n in chain if n in rel_len]
-        for n in chain:
-            if found:
-                rel_len[n] = float(np.mean(found))
-    for n in UNMEASURED_LENGTHS:
-        rel_len.pop(n, None)
-    return rel_len, rel_girth
+def _height(vertices) -> float:
+    return float(np.ptp(np.asarray(vertices)[:, 2]))
 
 
 def _hull_at_rest(model: BodyModel, pose: PoseParameters, hull: Surface) -> BodyModel:

@@ -27,7 +27,7 @@ from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.export.bvh import write_bvh
 from hullcap.export.gltf import write_glb
-from hullcap.fitting import FitResult, PoseParameters, fit, make_target, yaw_rotation
+from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, yaw_rotation
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
 from hullcap.sequence import Sequence
@@ -123,7 +123,7 @@ class Tracker:
     min_inlier_fraction: float = 0.6
     max_mean_residual: float = 0.03
     retries: int = 4
-    fit_options: dict = field(default_factory=lambda: {"rounds": 2})
+    fit_options: FitOptions = field(default_factory=lambda: FitOptions(rounds=2))
     seed: int = 0
 
     def __post_init__(self):
@@ -177,7 +177,7 @@ class Tracker:
         target = make_target(surface)
         best = None
         for start in self._candidates(model, starts):
-            result = fit(model, target, start, **self.fit_options)
+            result = fit(model, target, start, self.fit_options)
             if best is None or (self.passes(result), -result.energy) > (self.passes(best), -best.energy):
                 best = result
             if self.passes(result):

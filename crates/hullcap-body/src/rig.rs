@@ -143,6 +143,50 @@ impl Rig {
         &self.skeleton
     }
 
+    /// The rest vertices, body frame.
+    pub fn rest_vertices(&self) -> &[Vector3<f64>] {
+        &self.rest_vertices
+    }
+
+    /// The rest normals (unit), body frame.
+    pub fn rest_normals(&self) -> &[Vector3<f64>] {
+        &self.rest_normals
+    }
+
+    /// The skin weights.
+    pub fn weights(&self) -> &SkinWeights {
+        &self.weights
+    }
+
+    /// Vertex `i`'s weights as (link, weight) pairs.
+    #[inline]
+    pub fn vertex_weights(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let k = self.weights.k;
+        (0..k).map(move |c| {
+            (
+                self.weights.index[i * k + c] as usize,
+                self.weights.weight[i * k + c],
+            )
+        })
+    }
+
+    /// The same weights on another skeleton and rest mesh (the same vertex count; used
+    /// for a body with other proportions, whose validation the weights already passed).
+    pub(crate) fn reshaped(
+        &self,
+        skeleton: Skeleton,
+        rest_vertices: Vec<Vector3<f64>>,
+        rest_normals: Vec<Vector3<f64>>,
+    ) -> Rig {
+        debug_assert_eq!(rest_vertices.len(), self.rest_vertices.len());
+        Rig {
+            skeleton,
+            rest_vertices,
+            rest_normals,
+            weights: self.weights.clone(),
+        }
+    }
+
     /// Number of vertices.
     pub fn n_vertices(&self) -> usize {
         self.rest_vertices.len()

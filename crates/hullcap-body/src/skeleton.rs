@@ -157,6 +157,35 @@ impl Skeleton {
         self.origin[j]
     }
 
+    /// Link `j`'s parent (`None` for the root).
+    pub fn parent(&self, j: usize) -> Option<usize> {
+        self.parent[j]
+    }
+
+    /// The same tree and DOF with other rest joint centres (`origins`, one per link).
+    pub fn with_origins(&self, origins: &[Vector3<f64>]) -> Result<Skeleton, BodyError> {
+        if origins.len() != self.n_links() {
+            return Err(BodyError::WrongLength {
+                array: "origins",
+                got: origins.len(),
+                expected: self.n_links(),
+            });
+        }
+        if let Some(row) = origins
+            .iter()
+            .position(|o| !o.iter().all(|x| x.is_finite()))
+        {
+            return Err(BodyError::NotFinite {
+                array: "origins",
+                row,
+            });
+        }
+        Ok(Skeleton {
+            origin: origins.to_vec(),
+            ..self.clone()
+        })
+    }
+
     /// Whether link `j` moves with link `l` (is `l` or below it).
     pub fn moves_with(&self, j: usize, l: usize) -> bool {
         self.in_subtree[l][j]

@@ -1,33 +1,12 @@
 //! The fitting loop: IRLS iterations of Levenberg–Marquardt or conjugate-gradient steps,
 //! scheduled hierarchically or all at once.
 
-use crate::IcpError;
-use crate::Target;
-use crate::normal_equations::{Pair, Problem, robust_sigma};
-use hullcap_body::{Rig, RootPose, SkeletonPose};
+use crate::normal_equations::{Correspondences, Problem, robust_sigma};
+use crate::solve::levenberg_marquardt;
+use crate::{FitOptions, IcpError, Solver, Target};
+use hullcap_body::{Rig, RootPose, Skeleton, SkeletonPose};
 use hullcap_core::resolve_threads;
-use hullcap_kdtree::Gate;
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
-
-/// What a pair's residual measures.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Residual {
-    /// The distance between the points (the paper).
-    PointToPoint,
-    /// The distance from the model point to the target point's tangent plane.
-    PointToPlane,
-}
-
-/// How each iteration steps.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Solver {
-    /// Damped Gauss–Newton on the IRLS normal equations (default).
-    LevenbergMarquardt,
-    /// Nonlinear conjugate gradients (Polak–Ribière) on the same energy, the paper's
-    /// minimiser; the step length is the Gauss–Newton model's minimum along the
-    /// direction, halved until the energy falls.
-    ConjugateGradient,
-}
 
 /// A pose: the root's rotation and translation and the joint angles.
 #[derive(Debug, Clone, PartialEq)]
@@ -36,57 +15,6 @@ pub struct Params {
     pub root: RootPose,
     /// Joint angles, radians.
     pub theta: Vec<f64>,
-}
-
-/// Options of [`fit`].
-#[derive(Debug, Clone)]
-pub struct FitOptions {
-    /// Point-to-point (paper) or point-to-plane residuals.
-    pub residual: Residual,
-    /// Levenberg–Marquardt (default) or conjugate gradients (paper).
-    pub solver: Solver,
-    /// Correspondence gates: largest distance (m) and normal angle (rad).
-    pub gate: Gate,
-    /// Lower bound of the robust scale σ (m).
-    pub sigma_min: f64,
-    /// Largest number of iterations per stage (each with new correspondences).
-    pub iterations: usize,
-    /// A stage ends when an iteration lowers the energy by less than this fraction.
-    pub tolerance: f64,
-    /// Hierarchical: largest number of passes over the stages; the fit ends when a pass
-    /// changes the energy by less than `tolerance`.
-    pub rounds: usize,
-    /// Fit root then joint groups in turn (true), or all parameters at once.
-    pub hierarchical: bool,
-    /// After the hierarchical passes, one stage on all parameters together. Alternating
-    /// stages crawl along valleys where the root and a joint trade off (a zig-zag of
-    /// tiny steps); a joint Gauss–Newton step crosses them. Off = the paper's schedule.
-    pub polish: bool,
-    /// Distance (m) under which a matched model point counts as an inlier in the stats.
-    pub inlier_distance: f64,
-    /// Worker threads (`None` = all cores).
-    pub threads: Option<usize>,
-}
-
-impl Default for FitOptions {
-    fn default() -> Self {
-        FitOptions {
-            residual: Residual::PointToPoint,
-            solver: Solver::LevenbergMarquardt,
-            gate: Gate {
-                max_distance: 0.15,
-                max_angle: 60f64.to_radians(),
-            },
-            sigma_min: 0.004,
-            iterations: 10,
-            tolerance: 1e-3,
-            rounds: 4,
-            hierarchical: true,
-            polish: true,
-            inlier_distance: 0.02,
-            threads: None,
-        }
-    }
 }
 
 /// How a fit went.
@@ -101,8 +29,13 @@ pub struct FitStats {
     /// Model points matched within the gates and within `inlier_distance`, as a fraction
     /// of all model points.
     pub inlier_fraction: f64,
-    /// Mean distance of the matched pairs (m).
+    /// Mean distance of the matched model→hull pairs (m).
     pub mean_residual: f64,
+    /// Hull samples with a model point within the gates and within `inlier_distance`, as
+    /// a fraction of all samples: how much of the hull the model explains.
+    pub coverage: f64,
+    /// Mean distance of the matched hull→model pairs (m).
+    pub mean_reverse_residual: f64,
     /// The final robust scale σ (m).
     pub sigma: f64,
 }
@@ -190,6 +123,21 @@ fn check(
 ) -> Result<(), IcpError> {
     initial.root.validate()?;
     rig.skeleton().forward(&initial.theta)?;
+    check_points(rig, model_points)?;
+    let n = rig.skeleton().n_dofs();
+    if let Some(&d) = groups.iter().flatten().find(|&&d| d >= n) {
+        return Err(IcpError::BadIndex {
+            what: "DOF",
+            index: d,
+            bound: n,
+        });
+    }
+    options.validate()?;
+    Ok(())
+}
+
+/// Refuses an empty or out-of-range list of model points.
+pub(crate) fn check_points(rig: &Rig, model_points: &[u32]) -> Result<(), IcpError> {
     if let Some(&i) = model_points
         .iter()
         .find(|&&i| i as usize >= rig.n_vertices())
@@ -207,32 +155,35 @@ fn check(
             value: 0.0,
         });
     }
-    let n = rig.skeleton().n_dofs();
-    if let Some(&d) = groups.iter().flatten().find(|&&d| d >= n) {
-        return Err(IcpError::BadIndex {
-            what: "DOF",
-            index: d,
-            bound: n,
-        });
-    }
-    for (name, value, ok) in [
-        ("sigma_min", options.sigma_min, options.sigma_min > 0.0),
-        ("tolerance", options.tolerance, options.tolerance >= 0.0),
-        (
-            "inlier_distance",
-            options.inlier_distance,
-            options.inlier_distance > 0.0,
-        ),
-    ] {
-        if !ok || !value.is_finite() {
-            return Err(IcpError::BadParameter {
-                name,
-                requirement: "positive and finite",
-                value,
-            });
-        }
-    }
     Ok(())
+}
+
+/// The statistics of a pose at fresh correspondences (both ways) and σ; the energy is
+/// the one the fit minimises (one- or two-sided as `options` say).
+pub(crate) fn evaluate(
+    rig: &Rig,
+    target: &Target,
+    model_points: &[u32],
+    params: &Params,
+    options: &FitOptions,
+    threads: usize,
+) -> Result<FitStats, IcpError> {
+    let problem = Problem {
+        rig,
+        target,
+        kind: options.residual,
+        threads,
+    };
+    let pose = rig.skeleton().forward(&params.theta)?;
+    let found = problem.correspond(&pose, &params.root, model_points, options, true)?;
+    let sigma = robust_sigma(&found.forward, options.sigma_min);
+    let counted = if options.reverse_weight > 0.0 {
+        &found.pairs[..]
+    } else {
+        &found.pairs[..found.forward.len()]
+    };
+    let energy = problem.energy(&pose, &params.root, counted, sigma)?;
+    Ok(found.stats(model_points.len(), energy, sigma, options))
 }
 
 struct Fitter<'a> {
@@ -243,39 +194,30 @@ struct Fitter<'a> {
 }
 
 impl Fitter<'_> {
-    /// The statistics of `params` at fresh correspondences and σ (iterations and rounds
-    /// left for the caller).
+    /// The statistics of `params` (iterations and rounds left for the caller).
     fn evaluate(&self, params: &Params) -> Result<FitStats, IcpError> {
-        let (pose, pairs, distances, sigma) = self.pairs(params)?;
-        let energy = self.problem.energy(&pose, &params.root, &pairs, sigma)?;
-        let inliers = distances
-            .iter()
-            .filter(|&&d| d <= self.options.inlier_distance)
-            .count();
-        let mean_residual = if distances.is_empty() {
-            f64::INFINITY
-        } else {
-            distances.iter().sum::<f64>() / distances.len() as f64
-        };
-        Ok(FitStats {
-            iterations: 0,
-            rounds: 0,
-            energy,
-            inlier_fraction: inliers as f64 / self.model_points.len() as f64,
-            mean_residual,
-            sigma,
-        })
+        evaluate(
+            self.problem.rig,
+            self.problem.target,
+            self.model_points,
+            params,
+            self.options,
+            self.problem.threads,
+        )
     }
 
-    /// The skeleton's pose, the gated correspondences with their distances, and σ.
-    #[allow(clippy::type_complexity)]
-    fn pairs(&self, params: &Params) -> Result<(SkeletonPose, Vec<Pair>, Vec<f64>, f64), IcpError> {
+    /// The skeleton's pose, the gated correspondences, and σ.
+    fn pairs(&self, params: &Params) -> Result<(SkeletonPose, Correspondences, f64), IcpError> {
         let pose = self.problem.rig.skeleton().forward(&params.theta)?;
-        let (pairs, distances) =
-            self.problem
-                .correspond(&pose, &params.root, self.model_points, &self.options.gate)?;
-        let sigma = robust_sigma(&distances, self.options.sigma_min);
-        Ok((pose, pairs, distances, sigma))
+        let found = self.problem.correspond(
+            &pose,
+            &params.root,
+            self.model_points,
+            self.options,
+            self.options.reverse_weight > 0.0,
+        )?;
+        let sigma = robust_sigma(&found.forward, self.options.sigma_min);
+        Ok((pose, found, sigma))
     }
 
     /// ICP iterations on the parameters `active` until they settle.
@@ -284,43 +226,30 @@ impl Fitter<'_> {
         let mut previous_direction: Option<(DVector<f64>, DVector<f64>)> = None;
         for _ in 0..self.options.iterations {
             self.iterations += 1;
-            let (pose, pairs, _, sigma) = self.pairs(params)?;
+            let (pose, found, sigma) = self.pairs(params)?;
+            let pairs = &found.pairs;
             if pairs.len() < active.len() {
                 return Ok(()); // too few partners to say anything
             }
-            let sums = self
-                .problem
-                .normal_equations(&pose, &params.root, &pairs, sigma, active)?;
+            let sums =
+                self.problem
+                    .normal_equations(&pose, &params.root, pairs, sigma, active, None)?;
             let n = active.len();
             let h = DMatrix::from_row_slice(n, n, &sums.hessian);
             let g = DVector::from_vec(sums.gradient);
             let e0 = sums.energy;
             let energy_at = |candidate: &Params| -> Result<f64, IcpError> {
                 let pose = self.problem.rig.skeleton().forward(&candidate.theta)?;
-                self.problem.energy(&pose, &candidate.root, &pairs, sigma)
+                self.problem.energy(&pose, &candidate.root, pairs, sigma)
             };
             let accepted = match self.options.solver {
                 Solver::LevenbergMarquardt => {
-                    let mut accepted = None;
-                    for _ in 0..8 {
-                        let mut a = h.clone();
-                        for k in 0..n {
-                            a[(k, k)] += damping * h[(k, k)].max(1e-9) + 1e-12;
-                        }
-                        let Some(delta) = a.cholesky().map(|c| c.solve(&(-&g))) else {
-                            damping *= 10.0;
-                            continue;
-                        };
-                        let candidate = self.step(params, active, &delta);
+                    levenberg_marquardt(&h, &g, e0, &mut damping, |delta| {
+                        let candidate =
+                            params.stepped(self.problem.rig.skeleton(), active, delta.as_slice());
                         let e1 = energy_at(&candidate)?;
-                        if e1 < e0 {
-                            damping = (damping / 3.0).max(1e-9);
-                            accepted = Some((candidate, e1));
-                            break;
-                        }
-                        damping *= 4.0;
-                    }
-                    accepted
+                        Ok((candidate, e1))
+                    })?
                 }
                 Solver::ConjugateGradient => {
                     let mut direction = -&g;
@@ -340,7 +269,11 @@ impl Fitter<'_> {
                     };
                     let mut accepted = None;
                     for _ in 0..10 {
-                        let candidate = self.step(params, active, &(alpha * &direction));
+                        let candidate = params.stepped(
+                            self.problem.rig.skeleton(),
+                            active,
+                            (alpha * &direction).as_slice(),
+                        );
                         let e1 = energy_at(&candidate)?;
                         if e1 < e0 {
                             accepted = Some((candidate, e1));
@@ -364,11 +297,13 @@ impl Fitter<'_> {
         }
         Ok(())
     }
+}
 
-    /// `params` moved by `delta` on the parameters `active`: t += δt,
+impl Params {
+    /// The pose moved by `delta` on the parameters `active`: t += δt,
     /// R ← exp([δω]×)·R (kept orthonormal), θ += δθ, then θ clamped into the joint limits.
-    fn step(&self, params: &Params, active: &[usize], delta: &DVector<f64>) -> Params {
-        let mut out = params.clone();
+    pub(crate) fn stepped(&self, skeleton: &Skeleton, active: &[usize], delta: &[f64]) -> Params {
+        let mut out = self.clone();
         let mut omega = Vector3::zeros();
         for (&a, &d) in active.iter().zip(delta.iter()) {
             match a {
@@ -387,7 +322,7 @@ impl Fitter<'_> {
             rotation.renormalize();
             out.root.rotation = rotation.into_inner();
         }
-        self.problem.rig.skeleton().clamp(&mut out.theta);
+        skeleton.clamp(&mut out.theta);
         out
     }
 }
@@ -395,6 +330,7 @@ impl Fitter<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::Residual;
     use crate::testing::{root, target_at, tube};
 
     fn truth() -> Params {
@@ -501,6 +437,42 @@ mod tests {
             let r = params.root.rotation;
             assert!((r.transpose() * r - nalgebra::Matrix3::identity()).amax() < 1e-12);
         }
+    }
+
+    /// The last link's target has swung 1.2 rad away: the one-sided fit folds the link
+    /// further the wrong way (its model points pair with what lies nearest in 6-D), while
+    /// the hull→model pairs of the swung part pull it back.
+    #[test]
+    fn the_two_sided_energy_brings_back_a_limb_out_of_reach() {
+        let rig = tube();
+        let target = target_at(&rig, &truth());
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).collect();
+        let mut start = truth();
+        start.theta[2] -= 1.2;
+        let error = |reverse_weight: f64| {
+            let options = FitOptions {
+                reverse_weight,
+                rounds: 8,
+                iterations: 20,
+                ..FitOptions::default()
+            };
+            let (got, _) = fit(
+                &rig,
+                &target,
+                &points,
+                &start,
+                &[vec![0, 1], vec![2]],
+                &options,
+            )
+            .unwrap();
+            (got.theta[2] - truth().theta[2]).abs()
+        };
+        let (one_sided, two_sided) = (error(0.0), error(1.0));
+        assert!(two_sided < 0.01, "two-sided: {two_sided} rad off");
+        assert!(
+            one_sided > 0.1,
+            "one-sided: {one_sided} rad off (the test no longer tests anything)"
+        );
     }
 
     #[test]

@@ -17,10 +17,15 @@
 mod error;
 mod fit;
 mod normal_equations;
+mod options;
+mod shape_fit;
+mod solve;
 mod target;
 
 pub use error::IcpError;
-pub use fit::{FitOptions, FitStats, Params, Residual, Solver, fit};
+pub use fit::{FitStats, Params, fit};
+pub use options::{FitOptions, Residual, Solver};
+pub use shape_fit::{ShapeFit, ShapePrior, fit_shape};
 pub use target::Target;
 
 #[cfg(test)]

@@ -1,16 +1,71 @@
-//! One IRLS linearisation: correspondences, robust weights, and the normal equations
-//! JᵀWJ, JᵀWr summed over the pairs in parallel chunks.
+//! One IRLS linearisation: correspondences both ways, robust weights, and the normal
+//! equations JᵀWJ, JᵀWr summed over the pairs in parallel chunks.
+//!
+//! Every pair, whichever direction found it, is a model vertex and a target point with
+//! the residual r = v_i(θ) − t_k (or its component along the target normal), so the two
+//! directions share one Jacobian and one accumulation; they differ only in the pair's
+//! weight (1 for model→hull pairs, see [`FitOptions::reverse_weight`] for the others)
+//! and in what the residual measures: a hull point seeks its partner among all the posed
+//! model vertices (not only the sparser model points), and its pair is measured along the
+//! hull's normal, so that the spacing of the model's vertices does not count as error.
 
-use crate::{IcpError, Residual, Target};
-use hullcap_body::{Rig, RootPose, SkeletonPose};
-use hullcap_kdtree::Gate;
+use crate::{FitOptions, FitStats, IcpError, Residual, Target};
+use hullcap_body::{Rig, RootPose, Shape, SkeletonPose};
+use hullcap_kdtree::{BuildOptions, NormalKdTree};
 use nalgebra::Vector3;
 
-/// A model vertex and its partner on the target.
+/// Posed model points: positions and unit normals, world frame.
+pub(crate) type PosedPoints = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+
+/// A model vertex, its partner on the target, the pair's weight in the energy and what
+/// its residual measures.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Pair {
     pub vertex: u32,
     pub target: u32,
+    pub weight: f64,
+    pub kind: Residual,
+}
+
+/// The pairs of one pose, both directions, with their distances.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Correspondences {
+    pub pairs: Vec<Pair>,
+    /// Distance of each model→hull pair (the first `forward.len()` of `pairs`).
+    pub forward: Vec<f64>,
+    /// Distance from each hull sample to its model partner; +∞ where it has none.
+    pub reverse: Vec<f64>,
+}
+
+impl Correspondences {
+    /// The fit statistics of these pairs (iterations and rounds left at 0).
+    pub(crate) fn stats(
+        &self,
+        n_model_points: usize,
+        energy: f64,
+        sigma: f64,
+        options: &FitOptions,
+    ) -> FitStats {
+        let within = |d: &[f64]| d.iter().filter(|&&x| x <= options.inlier_distance).count() as f64;
+        let mean = |d: &[f64]| {
+            let finite: Vec<f64> = d.iter().copied().filter(|x| x.is_finite()).collect();
+            if finite.is_empty() {
+                f64::INFINITY
+            } else {
+                finite.iter().sum::<f64>() / finite.len() as f64
+            }
+        };
+        FitStats {
+            iterations: 0,
+            rounds: 0,
+            energy,
+            inlier_fraction: within(&self.forward) / n_model_points.max(1) as f64,
+            mean_residual: mean(&self.forward),
+            coverage: within(&self.reverse) / self.reverse.len().max(1) as f64,
+            mean_reverse_residual: mean(&self.reverse),
+            sigma,
+        }
+    }
 }
 
 /// Sums over the pairs: Gauss–Newton Hessian, gradient and robust energy.
@@ -20,12 +75,12 @@ pub(crate) struct Sums {
     pub hessian: Vec<f64>,
     /// JᵀWr.
     pub gradient: Vec<f64>,
-    /// Σ ρ(d).
+    /// Σ weight·ρ(d).
     pub energy: f64,
 }
 
 impl Sums {
-    fn zeros(n: usize) -> Self {
+    pub(crate) fn zeros(n: usize) -> Self {
         Sums {
             hessian: vec![0.0; n * n],
             gradient: vec![0.0; n],
@@ -66,8 +121,8 @@ fn residual(kind: Residual, target: &Target, v: &Vector3<f64>, t: usize) -> ([f6
     }
 }
 
-/// σ from the median pair distance (1.4826·median estimates a Gaussian's σ), bounded
-/// below by `sigma_min`.
+/// σ from the median model→hull distance (1.4826·median estimates a Gaussian's σ),
+/// bounded below by `sigma_min`.
 pub(crate) fn robust_sigma(distances: &[f64], sigma_min: f64) -> f64 {
     if distances.is_empty() {
         return sigma_min;
@@ -76,6 +131,13 @@ pub(crate) fn robust_sigma(distances: &[f64], sigma_min: f64) -> f64 {
     let mid = d.len() / 2;
     let (_, median, _) = d.select_nth_unstable_by(mid, f64::total_cmp);
     (1.4826 * *median).max(sigma_min)
+}
+
+/// The shape columns of the Jacobian (a fit of the body's proportions).
+pub(crate) struct ShapeColumns<'a> {
+    pub shape: &'a Shape,
+    /// [`Shape::pose_derivatives`] at the pose being linearised.
+    pub d_pose: &'a [Vector3<f64>],
 }
 
 /// What every pass over the model points needs: the rig, the target, the residual kind
@@ -112,15 +174,13 @@ impl Problem<'_> {
         Ok(partial)
     }
 
-    /// Partners of the model points posed at (`pose`, `root`), gated; with each matched
-    /// pair's distance.
-    pub(crate) fn correspond(
+    /// The model points posed at (`pose`, `root`): positions and unit normals.
+    pub(crate) fn posed_points(
         &self,
         pose: &SkeletonPose,
         root: &RootPose,
         model_points: &[u32],
-        gate: &Gate,
-    ) -> Result<(Vec<Pair>, Vec<f64>), IcpError> {
+    ) -> Result<PosedPoints, IcpError> {
         let mut posed = vec![([0.0; 3], [0.0; 3]); model_points.len()];
         hullcap_core::for_each_chunk_mut(&mut posed, self.threads, 512, |offset, chunk| {
             for (slot, &i) in chunk.iter_mut().zip(&model_points[offset..]) {
@@ -128,25 +188,79 @@ impl Problem<'_> {
                 *slot = (v.into(), n.into());
             }
         })?;
-        let (points, normals): (Vec<[f64; 3]>, Vec<[f64; 3]>) = posed.into_iter().unzip();
+        Ok(posed.into_iter().unzip())
+    }
+
+    /// The gated pairs of the model points posed at (`pose`, `root`): each model point's
+    /// nearest target key, then (with `reverse`) each hull sample's nearest posed model
+    /// vertex, weighted by `options.reverse_weight`.
+    pub(crate) fn correspond(
+        &self,
+        pose: &SkeletonPose,
+        root: &RootPose,
+        model_points: &[u32],
+        options: &FitOptions,
+        reverse: bool,
+    ) -> Result<Correspondences, IcpError> {
+        let (points, normals) = self.posed_points(pose, root, model_points)?;
         let found = self
             .target
             .tree
-            .query(&points, &normals, gate, Some(self.threads))?;
-        let mut pairs = Vec::with_capacity(found.len());
-        let mut distances = Vec::with_capacity(found.len());
+            .query(&points, &normals, &options.gate, Some(self.threads))?;
+        let mut out = Correspondences::default();
         for ((nb, &vertex), p) in found.iter().zip(model_points).zip(&points) {
             if nb.index >= 0 {
                 let t = nb.index as usize;
                 let (_, _, d) = residual(self.kind, self.target, &Vector3::from(*p), t);
-                pairs.push(Pair {
+                out.pairs.push(Pair {
                     vertex,
                     target: t as u32,
+                    weight: 1.0,
+                    kind: self.kind,
                 });
-                distances.push(d);
+                out.forward.push(d);
             }
         }
-        Ok((pairs, distances))
+        if reverse {
+            let every: Vec<u32> = (0..self.rig.n_vertices() as u32).collect();
+            let (all_points, all_normals) = self.posed_points(pose, root, &every)?;
+            let model = NormalKdTree::build(
+                &all_points,
+                &all_normals,
+                &BuildOptions {
+                    normal_weight: Some(self.target.normal_weight()),
+                    ..BuildOptions::default()
+                },
+            )?;
+            let samples = self.target.samples(options.reverse_points);
+            let (sp, sn): (Vec<[f64; 3]>, Vec<[f64; 3]>) = samples
+                .iter()
+                .map(|&k| {
+                    (
+                        self.target.points[k as usize],
+                        self.target.normals[k as usize],
+                    )
+                })
+                .unzip();
+            let found = model.query(&sp, &sn, &options.gate, Some(self.threads))?;
+            let weight = options.reverse_weight * model_points.len() as f64 / samples.len() as f64;
+            for (nb, &k) in found.iter().zip(&samples) {
+                if nb.index < 0 {
+                    out.reverse.push(f64::INFINITY);
+                    continue;
+                }
+                let p = Vector3::from(all_points[nb.index as usize]);
+                let (_, _, d) = residual(Residual::PointToPlane, self.target, &p, k as usize);
+                out.pairs.push(Pair {
+                    vertex: nb.index as u32,
+                    target: k,
+                    weight,
+                    kind: Residual::PointToPlane,
+                });
+                out.reverse.push(d);
+            }
+        }
+        Ok(out)
     }
 
     /// The robust energy of the pairs at a pose (no derivatives).
@@ -163,16 +277,17 @@ impl Problem<'_> {
             |sum, share| {
                 for p in share {
                     let v = self.world_vertex(pose, root, p.vertex as usize);
-                    let (_, _, d) = residual(self.kind, self.target, &v, p.target as usize);
-                    *sum += lorentzian(d, sigma).0;
+                    let (_, _, d) = residual(p.kind, self.target, &v, p.target as usize);
+                    *sum += p.weight * lorentzian(d, sigma).0;
                 }
             },
         )?;
         Ok(partial.iter().sum())
     }
 
-    /// JᵀWJ, JᵀWr and Σρ over the pairs for the parameters `active` (indices into
-    /// t, ω, θ), with IRLS weights at scale `sigma`.
+    /// JᵀWJ, JᵀWr and Σρ over the pairs for the pose parameters `active` (indices into
+    /// t, ω, θ) followed, when `shape` is given, by every shape parameter; IRLS weights at
+    /// scale `sigma`.
     pub(crate) fn normal_equations(
         &self,
         pose: &SkeletonPose,
@@ -180,30 +295,44 @@ impl Problem<'_> {
         pairs: &[Pair],
         sigma: f64,
         active: &[usize],
+        shape: Option<&ShapeColumns<'_>>,
     ) -> Result<Sums, IcpError> {
-        let n = active.len();
+        let n_shape = shape.map_or(0, |s| s.shape.n_params());
+        let n = active.len() + n_shape;
         let partial = self.over_pairs(
             pairs,
             || Sums::zeros(n),
             |sums, share| {
                 let mut row = vec![[0.0; 3]; self.rig.n_params()];
+                let mut shape_row = vec![[0.0; 3]; n_shape];
+                let mut scratch = vec![Vector3::zeros(); n_shape];
                 let mut j = vec![[0.0; 3]; n];
                 for p in share {
                     let (i, t) = (p.vertex as usize, p.target as usize);
                     let v = self.world_vertex(pose, root, i);
-                    let (r, m, d) = residual(self.kind, self.target, &v, t);
-                    let (rho, w) = lorentzian(d, sigma);
-                    sums.energy += rho;
+                    let (r, m, d) = residual(p.kind, self.target, &v, t);
+                    let (rho, e) = lorentzian(d, sigma);
+                    let w = p.weight * e;
+                    sums.energy += p.weight * rho;
                     self.rig.vertex_jacobian(pose, root, i, &mut row);
+                    if let Some(s) = shape {
+                        s.shape.vertex_jacobian(
+                            pose,
+                            s.d_pose,
+                            root,
+                            i,
+                            &mut scratch,
+                            &mut shape_row,
+                        );
+                    }
+                    let columns = active.iter().map(|&a| &row[a]).chain(shape_row.iter());
                     let nq = &self.target.normals[t];
-                    for (slot, &a) in j.iter_mut().zip(active) {
-                        *slot = match self.kind {
-                            Residual::PointToPoint => row[a],
-                            Residual::PointToPlane => [
-                                row[a][0] * nq[0] + row[a][1] * nq[1] + row[a][2] * nq[2],
-                                0.0,
-                                0.0,
-                            ],
+                    for (slot, col) in j.iter_mut().zip(columns) {
+                        *slot = match p.kind {
+                            Residual::PointToPoint => *col,
+                            Residual::PointToPlane => {
+                                [col[0] * nq[0] + col[1] * nq[1] + col[2] * nq[2], 0.0, 0.0]
+                            }
                         };
                     }
                     for (a, ja) in j.iter().enumerate() {
@@ -234,9 +363,10 @@ mod tests {
     use super::*;
     use crate::Params;
     use crate::testing::{root, target_at, tube};
+    use hullcap_kdtree::Gate;
 
-    /// The gradient JᵀWr is dE/dp of the robust energy for fixed pairs, and JᵀWJ is
-    /// symmetric: checked against central differences of `energy`.
+    /// The gradient JᵀWr is dE/dp of the robust energy for fixed pairs (both directions),
+    /// and JᵀWJ is symmetric: checked against central differences of `energy`.
     #[test]
     fn gradient_matches_finite_differences() {
         let rig = tube();
@@ -251,22 +381,34 @@ mod tests {
         };
         let pose = rig.skeleton().forward(&at.theta).unwrap();
         let points: Vec<u32> = (0..rig.n_vertices() as u32).step_by(3).collect();
-        for kind in [Residual::PointToPoint, Residual::PointToPlane] {
+        for (kind, reverse_weight) in [
+            (Residual::PointToPoint, 0.0),
+            (Residual::PointToPlane, 0.0),
+            (Residual::PointToPoint, 0.7),
+        ] {
             let problem = Problem {
                 rig: &rig,
                 target: &target,
                 kind,
                 threads: 2,
             };
-            let gate = Gate {
-                max_distance: 1.0,
-                max_angle: 3.0,
+            let options = FitOptions {
+                gate: Gate {
+                    max_distance: 1.0,
+                    max_angle: 3.0,
+                },
+                reverse_weight,
+                reverse_points: 300,
+                ..FitOptions::default()
             };
-            let (pairs, d) = problem.correspond(&pose, &at.root, &points, &gate).unwrap();
-            let sigma = robust_sigma(&d, 0.004);
+            let found = problem
+                .correspond(&pose, &at.root, &points, &options, reverse_weight > 0.0)
+                .unwrap();
+            assert_eq!(found.reverse.is_empty(), reverse_weight == 0.0);
+            let sigma = robust_sigma(&found.forward, 0.004);
             let active: Vec<usize> = (0..9).collect();
             let sums = problem
-                .normal_equations(&pose, &at.root, &pairs, sigma, &active)
+                .normal_equations(&pose, &at.root, &found.pairs, sigma, &active, None)
                 .unwrap();
             let h = 1e-6;
             for a in 0..9 {
@@ -283,13 +425,13 @@ mod tests {
                         _ => p.theta[a - 6] += s,
                     }
                     let pose = rig.skeleton().forward(&p.theta).unwrap();
-                    problem.energy(&pose, &p.root, &pairs, sigma).unwrap()
+                    problem.energy(&pose, &p.root, &found.pairs, sigma).unwrap()
                 };
                 let fd = (e(h) - e(-h)) / (2.0 * h);
                 let g = sums.gradient[a];
                 assert!(
                     (fd - g).abs() <= 1e-6 * (1.0 + g.abs()),
-                    "{kind:?} param {a}: {fd} vs {g}"
+                    "{kind:?} reverse {reverse_weight}, param {a}: {fd} vs {g}"
                 );
             }
             for a in 0..9 {

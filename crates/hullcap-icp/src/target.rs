@@ -48,6 +48,12 @@ impl Target {
         self.points.is_empty()
     }
 
+    /// About `count` target indices spread evenly over the points (every n-th).
+    pub fn samples(&self, count: usize) -> Vec<u32> {
+        let step = (self.points.len() / count.max(1)).max(1);
+        (0..self.points.len() as u32).step_by(step).collect()
+    }
+
     /// λ of the kd-tree's keys.
     pub fn normal_weight(&self) -> f64 {
         self.tree.normal_weight()

@@ -3,7 +3,8 @@
 use crate::arrays::{self, float_rows, index_rows, rows3};
 use crate::call::detached;
 use hullcap_body::{
-    BodyError, Dof, Rig as EngineRig, RootPose, Skeleton, SkinWeightOptions, SkinWeights,
+    BodyError, Dof, Rig as EngineRig, RootPose, Shape as EngineShape, ShapeParameter, Skeleton,
+    SkinWeightOptions, SkinWeights,
 };
 use nalgebra::{Matrix3, Vector3};
 use numpy::{PyArray1, PyArrayMethods};
@@ -268,5 +269,102 @@ impl Rig {
         let jac = detached(py, || self.rig.jacobian(&theta, &root, threads))?;
         let shape = [self.rig.n_vertices(), self.rig.n_params(), 3];
         flat_to_numpy(py, jac.as_flattened().to_vec(), &shape)
+    }
+}
+
+/// A rig whose proportions are parameters (`hullcap_body::Shape`); see `_engine.pyi`.
+#[pyclass(module = "hullcap._engine", name = "Shape", frozen)]
+pub(crate) struct Shape {
+    pub(crate) shape: EngineShape,
+}
+
+#[pymethods]
+impl Shape {
+    #[new]
+    fn new(
+        rig: PyRef<'_, Rig>,
+        stretches: Vec<Vec<(i64, Bound<'_, PyAny>)>>,
+        shifts: Vec<Vec<(i64, Bound<'_, PyAny>)>>,
+        centres: Vec<Vec<(i64, Bound<'_, PyAny>)>>,
+    ) -> PyResult<Self> {
+        use crate::call::IntoPyErr;
+        if stretches.len() != shifts.len() || shifts.len() != centres.len() {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "stretches, shifts and centres must list the same parameters: {}, {} and {}",
+                stretches.len(),
+                shifts.len(),
+                centres.len()
+            )));
+        }
+        let link = |j: i64| {
+            usize::try_from(j).map_err(|_| {
+                pyo3::exceptions::PyValueError::new_err(format!(
+                    "shape: link index {j} is negative"
+                ))
+            })
+        };
+        let mut params = Vec::with_capacity(stretches.len());
+        let vector = |c: &Bound<'_, PyAny>, what| -> PyResult<Vector3<f64>> {
+            let rows = float_rows::<3>(&c.call_method1("reshape", ((1, 3),))?, what, &[3])?;
+            Ok(Vector3::from(rows.rows()[0]))
+        };
+        for ((st, sh), ce) in stretches.iter().zip(&shifts).zip(&centres) {
+            let mut p = ShapeParameter::default();
+            for (j, m) in st {
+                let rows = float_rows::<9>(
+                    &m.call_method1("reshape", ((1, 3, 3),))?,
+                    "shape stretch",
+                    &[3, 3],
+                )?;
+                p.stretches
+                    .push((link(*j)?, Matrix3::from_row_slice(&rows.rows()[0])));
+            }
+            for (j, c) in sh {
+                p.shifts.push((link(*j)?, vector(c, "shape shift")?));
+            }
+            for (j, e) in ce {
+                p.centres.push((link(*j)?, vector(e, "shape centre")?));
+            }
+            params.push(p);
+        }
+        let shape = EngineShape::new(rig.rig.clone(), &params).map_err(IntoPyErr::into_py_err)?;
+        Ok(Shape { shape })
+    }
+
+    /// Number of shape parameters.
+    #[getter]
+    fn n_params(&self) -> usize {
+        self.shape.n_params()
+    }
+
+    /// The rest body at `shape`: (joint centres (L, 3), vertices (V, 3)), body frame.
+    fn rest<'py>(
+        &self,
+        py: Python<'py>,
+        shape: Vec<f64>,
+    ) -> PyResult<(F64Array<'py>, F64Array<'py>)> {
+        let rig = detached(py, || self.shape.rig(&shape))?;
+        let origins: Vec<[f64; 3]> = (0..rig.skeleton().n_links())
+            .map(|j| rig.skeleton().origin(j).into())
+            .collect();
+        let vertices: Vec<[f64; 3]> = rig.rest_vertices().iter().map(|v| (*v).into()).collect();
+        Ok((
+            to_numpy(py, &origins, &[3])?,
+            to_numpy(py, &vertices, &[3])?,
+        ))
+    }
+
+    /// Rest points bound to `links` (one each) mapped to the body at `shape`: (N, 3).
+    fn map_points<'py>(
+        &self,
+        py: Python<'py>,
+        shape: Vec<f64>,
+        links: Vec<usize>,
+        points: &Bound<'py, PyAny>,
+    ) -> PyResult<F64Array<'py>> {
+        let points = rows3(points, "points")?;
+        let p = points.rows();
+        let mapped = detached(py, || self.shape.map_points(&shape, &links, p))?;
+        to_numpy(py, &mapped, &[3])
     }
 }

@@ -1,10 +1,10 @@
 //! Robust articulated ICP: the target surface and the fit; see `hullcap._engine.pyi`.
 
-use crate::arrays::{self, rows3};
-use crate::body::{Rig, root_pose};
+use crate::arrays::rows3;
+use crate::body::{Rig, Shape, root_pose};
 use crate::call::detached;
-use hullcap_icp::{FitOptions, Params, Residual, Solver, Target as EngineTarget};
-use hullcap_kdtree::Gate;
+use crate::options::FitOptions;
+use hullcap_icp::{FitStats, Params, ShapePrior, Target as EngineTarget};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -44,112 +44,165 @@ impl Target {
     }
 }
 
+/// A fit's statistics as a dict (the keyword arguments of `hullcap.FitResult`).
+fn stats_dict<'py>(py: Python<'py>, stats: &FitStats) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("iterations", stats.iterations)?;
+    d.set_item("rounds", stats.rounds)?;
+    d.set_item("energy", stats.energy)?;
+    d.set_item("inlier_fraction", stats.inlier_fraction)?;
+    d.set_item("mean_residual", stats.mean_residual)?;
+    d.set_item("coverage", stats.coverage)?;
+    d.set_item("mean_reverse_residual", stats.mean_reverse_residual)?;
+    d.set_item("sigma", stats.sigma)?;
+    Ok(d)
+}
+
+/// A pose as NumPy arrays: (theta (D,), root rotation (3, 3), root translation (3,)).
+type PoseArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, numpy::PyArrayDyn<f64>>,
+    Bound<'py, PyArray1<f64>>,
+);
+
+fn pose_arrays<'py>(py: Python<'py>, params: &Params) -> PyResult<PoseArrays<'py>> {
+    let r: Vec<f64> = (0..9)
+        .map(|i| params.root.rotation[(i / 3, i % 3)])
+        .collect();
+    Ok((
+        PyArray1::from_vec(py, params.theta.clone()),
+        PyArray1::from_vec(py, r).reshape(vec![3, 3])?,
+        PyArray1::from_vec(py, params.root.translation.iter().copied().collect()),
+    ))
+}
+
+/// Model point indices from Python, or the options' evenly spread default.
+fn model_points(
+    given: Option<Vec<i64>>,
+    n_vertices: usize,
+    options: &FitOptions,
+) -> PyResult<Vec<u32>> {
+    match given {
+        None => Ok(options.default_model_points(n_vertices)),
+        Some(points) => points
+            .iter()
+            .map(|&i| {
+                u32::try_from(i).map_err(|_| {
+                    PyValueError::new_err(format!("model_points holds {i}, not a vertex index"))
+                })
+            })
+            .collect(),
+    }
+}
+
+fn dof_groups(groups: Vec<Vec<i64>>) -> PyResult<Vec<Vec<usize>>> {
+    groups
+        .iter()
+        .map(|g| {
+            g.iter()
+                .map(|&d| {
+                    usize::try_from(d).map_err(|_| {
+                        PyValueError::new_err(format!("groups holds a negative index {d}"))
+                    })
+                })
+                .collect()
+        })
+        .collect()
+}
+
 /// Fits a rig to a target; see `hullcap._engine.pyi`.
 #[pyfunction]
-#[pyo3(signature = (rig, target, model_points, theta, root_rotation, root_translation, groups,
-                    residual="point_to_point", solver="lm", max_distance=0.15, max_angle=1.0471975511965976,
-                    sigma_min=0.004, iterations=10, tolerance=1e-3, rounds=4, hierarchical=true,
-                    polish=true, inlier_distance=0.02, threads=None))]
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[pyo3(signature = (rig, target, theta, root_rotation, root_translation, groups, options, model_points=None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn fit<'py>(
     py: Python<'py>,
     rig: PyRef<'py, Rig>,
     target: PyRef<'py, Target>,
-    model_points: Vec<i64>,
     theta: Vec<f64>,
     root_rotation: &Bound<'py, PyAny>,
     root_translation: &Bound<'py, PyAny>,
     groups: Vec<Vec<i64>>,
-    residual: &str,
-    solver: &str,
-    max_distance: f64,
-    max_angle: f64,
-    sigma_min: f64,
-    iterations: i64,
-    tolerance: f64,
-    rounds: i64,
-    hierarchical: bool,
-    polish: bool,
-    inlier_distance: f64,
-    threads: Option<i64>,
-) -> PyResult<(
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, numpy::PyArrayDyn<f64>>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyDict>,
-)> {
-    let residual = match residual {
-        "point_to_point" => Residual::PointToPoint,
-        "point_to_plane" => Residual::PointToPlane,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "residual must be 'point_to_point' or 'point_to_plane', got {other:?}"
-            )));
-        }
-    };
-    let solver = match solver {
-        "lm" => Solver::LevenbergMarquardt,
-        "cg" => Solver::ConjugateGradient,
-        other => {
-            return Err(PyValueError::new_err(format!(
-                "solver must be 'lm' or 'cg', got {other:?}"
-            )));
-        }
-    };
-    let index = |x: i64, what: &str| {
-        usize::try_from(x)
-            .map_err(|_| PyValueError::new_err(format!("{what} holds a negative index {x}")))
-    };
-    let points: Vec<u32> = model_points
-        .iter()
-        .map(|&i| {
-            index(i, "model_points").and_then(|u| {
-                u32::try_from(u).map_err(|_| PyValueError::new_err("model point index too large"))
-            })
-        })
-        .collect::<PyResult<_>>()?;
-    let groups: Vec<Vec<usize>> = groups
-        .iter()
-        .map(|g| {
-            g.iter()
-                .map(|&d| index(d, "groups"))
-                .collect::<PyResult<_>>()
-        })
-        .collect::<PyResult<_>>()?;
-    let options = FitOptions {
-        residual,
-        solver,
-        gate: Gate {
-            max_distance,
-            max_angle,
-        },
-        sigma_min,
-        iterations: arrays::count(iterations, "iterations", 1)?,
-        tolerance,
-        rounds: arrays::count(rounds, "rounds", 1)?,
-        hierarchical,
-        polish,
-        inlier_distance,
-        threads: arrays::threads(threads)?,
-    };
+    options: PyRef<'py, FitOptions>,
+    model_points: Option<Vec<i64>>,
+) -> PyResult<(PoseArrays<'py>, Bound<'py, PyDict>)> {
+    let engine_options = options.engine()?;
+    let points = self::model_points(model_points, rig.rig.n_vertices(), &options)?;
+    let groups = dof_groups(groups)?;
     let root = root_pose(Some(root_rotation), Some(root_translation))?;
     let initial = Params { root, theta };
     let (rig, target) = (&rig.rig, &target.target);
     let (got, stats) = detached(py, || {
-        hullcap_icp::fit(rig, target, &points, &initial, &groups, &options)
+        hullcap_icp::fit(rig, target, &points, &initial, &groups, &engine_options)
     })?;
-    let stats_dict = PyDict::new(py);
-    stats_dict.set_item("iterations", stats.iterations)?;
-    stats_dict.set_item("rounds", stats.rounds)?;
-    stats_dict.set_item("energy", stats.energy)?;
-    stats_dict.set_item("inlier_fraction", stats.inlier_fraction)?;
-    stats_dict.set_item("mean_residual", stats.mean_residual)?;
-    stats_dict.set_item("sigma", stats.sigma)?;
-    let r: Vec<f64> = (0..9).map(|i| got.root.rotation[(i / 3, i % 3)]).collect();
+    Ok((pose_arrays(py, &got)?, stats_dict(py, &stats)?))
+}
+
+/// Fits a shape and the poses of several frames together; see `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (shape, initial_shape, targets, thetas, root_rotations, root_translations,
+                    prior_sigma, prior_distance, options, model_points=None))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub(crate) fn fit_shape<'py>(
+    py: Python<'py>,
+    shape: PyRef<'py, Shape>,
+    initial_shape: Vec<f64>,
+    targets: Vec<PyRef<'py, Target>>,
+    thetas: Vec<Vec<f64>>,
+    root_rotations: Vec<Bound<'py, PyAny>>,
+    root_translations: Vec<Bound<'py, PyAny>>,
+    prior_sigma: Vec<f64>,
+    prior_distance: f64,
+    options: PyRef<'py, FitOptions>,
+    model_points: Option<Vec<i64>>,
+) -> PyResult<(
+    Bound<'py, PyArray1<f64>>,
+    Vec<PoseArrays<'py>>,
+    Vec<Bound<'py, PyDict>>,
+    usize,
+)> {
+    let engine_options = options.engine()?;
+    let n = targets.len();
+    if thetas.len() != n || root_rotations.len() != n || root_translations.len() != n {
+        return Err(PyValueError::new_err(format!(
+            "fit_shape: {n} targets but {} thetas, {} root rotations, {} root translations",
+            thetas.len(),
+            root_rotations.len(),
+            root_translations.len()
+        )));
+    }
+    let shape = &shape.shape;
+    let points = self::model_points(model_points, shape.base().n_vertices(), &options)?;
+    let mut frames = Vec::with_capacity(n);
+    for (f, theta) in thetas.into_iter().enumerate() {
+        let root = root_pose(Some(&root_rotations[f]), Some(&root_translations[f]))?;
+        frames.push((&targets[f].target, Params { root, theta }));
+    }
+    let prior = ShapePrior {
+        sigma: prior_sigma,
+        prior_distance,
+    };
+    let found = detached(py, || {
+        hullcap_icp::fit_shape(
+            shape,
+            &initial_shape,
+            &frames,
+            &points,
+            &prior,
+            &engine_options,
+        )
+    })?;
     Ok((
-        PyArray1::from_vec(py, got.theta),
-        PyArray1::from_vec(py, r).reshape(vec![3, 3])?,
-        PyArray1::from_vec(py, got.root.translation.iter().copied().collect()),
-        stats_dict,
+        PyArray1::from_vec(py, found.shape),
+        found
+            .poses
+            .iter()
+            .map(|p| pose_arrays(py, p))
+            .collect::<PyResult<_>>()?,
+        found
+            .stats
+            .iter()
+            .map(|s| stats_dict(py, s))
+            .collect::<PyResult<_>>()?,
+        found.iterations,
     ))
 }

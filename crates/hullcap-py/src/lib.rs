@@ -9,6 +9,7 @@ mod body;
 mod call;
 mod icp;
 mod kdtree;
+mod options;
 mod raster;
 
 use pyo3::prelude::*;
@@ -24,5 +25,8 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(raster::rasterize, m)?)?;
     m.add_class::<icp::Target>()?;
     m.add_function(wrap_pyfunction!(icp::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(icp::fit_shape, m)?)?;
+    m.add_class::<options::FitOptions>()?;
+    m.add_class::<body::Shape>()?;
     Ok(())
 }

@@ -1,0 +1,98 @@
+"""Fit options across the boundary, the linear shape model, and the subject model fitted
+by optimisation."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+from hullcap import BodyModel, FitOptions, PoseParameters, Surface, build_subject
+from hullcap.fitting import yaw_rotation
+from hullcap.shape import ShapeBasis
+from hullcap.subject import SubjectOptions
+
+
+def test_fit_options_come_from_the_engine_and_are_checked():
+    o = FitOptions()
+    assert o.residual == "point_to_point" and o.max_angle == pytest.approx(np.radians(60))
+    assert o.reverse_weight == 0.0  # the paper's one-sided energy unless asked
+    two = o.replace(reverse_weight=1.0, rounds=2)
+    assert (two.reverse_weight, two.rounds, o.rounds) == (1.0, 2, 4)
+    assert pickle.loads(pickle.dumps(two)) == two and two != o
+    assert "reverse_weight=1.0" in repr(two)
+    with pytest.raises(ValueError, match="max_distance must be positive"):
+        FitOptions(max_distance=-1.0)
+    with pytest.raises(ValueError, match="residual must be"):
+        FitOptions(residual="point_to_line")
+    with pytest.raises(TypeError, match="no field 'max_angle_deg'"):
+        FitOptions(max_angle_deg=30)
+
+
+def test_a_shape_vector_moves_the_body_linearly():
+    model = BodyModel.template()
+    basis = SubjectOptions().basis(model.link_model)
+    assert basis.names[0] == "scale:all" and "centre:knee:z" in basis.names
+    same = model.shaped(basis, np.zeros(len(basis)))
+    assert np.array_equal(same.vertices, model.vertices)
+    s = np.zeros(len(basis))
+    s[basis.names.index("scale:all")] = 0.1
+    bigger = model.shaped(basis, s)
+    # A uniform 10 % scale about the pelvis joint (the body frame's origin).
+    assert np.allclose(bigger.vertices, 1.1 * model.vertices, atol=1e-12)
+    assert np.allclose(bigger.pose().joints, 1.1 * model.pose().joints, atol=1e-12)
+    # A centre move shifts the joint, not the surface or the joints below it.
+    s = np.zeros(len(basis))
+    s[basis.names.index("centre:knee:z")] = 0.02
+    moved = model.shaped(basis, s)
+    knee = model.joint_names.index("l_knee")
+    assert np.array_equal(moved.vertices, model.vertices)
+    assert np.allclose(moved.pose().joints[knee] - model.pose().joints[knee], [0, 0, 0.02])
+    ankle = model.joint_names.index("l_ankle")
+    assert np.allclose(moved.pose().joints[ankle], model.pose().joints[ankle])
+
+
+def test_the_subject_model_recovers_proportions_from_exact_surfaces():
+    """A body 8 % taller with longer thighs and a slimmer torso, seen in a calibration
+    pose and two poses of motion: the fitted model's limb lengths match within 1.5 %."""
+    template = BodyModel.template()
+    truth_model = template.scaled(
+        {n: 1.08 for n in template.link_model.names} | {"l_thigh": 1.16, "r_thigh": 1.16},
+        {n: 1.08 for n in template.link_model.names} | {"torso": 0.95})
+    names = template.dof_names
+    poses = []
+    for bend in (0.0, 0.6, 1.0):
+        theta = np.zeros(len(names))
+        for side in "lr":
+            theta[names.index(f"{side}_shoulder_abduction")] = -0.4
+            theta[names.index(f"{side}_knee_flexion")] = bend
+            theta[names.index(f"{side}_hip_flexion")] = 0.5 * bend
+        poses.append(PoseParameters(theta, yaw_rotation(0.7), np.array([0.2, -0.1, 1.05])))
+    surfaces = []
+    for p in poses:
+        posed = truth_model.pose(p.theta, p.root_rotation, p.root_translation)
+        surfaces.append(Surface(posed.vertices, truth_model.faces, posed.normals))
+    subject = build_subject(surfaces)
+
+    def lengths(m):
+        j = dict(zip(m.joint_names, m.pose().joints))
+        return np.array([np.linalg.norm(j[a] - j[b]) for a, b in
+                         (("l_hip", "l_knee"), ("l_knee", "l_ankle"), ("l_shoulder", "l_elbow"))])
+
+    got, want = lengths(subject.model), lengths(truth_model)
+    assert np.abs(got / want - 1).max() < 0.015, (got, want)
+    placed = subject.model.pose(subject.pose.theta, subject.pose.root_rotation, subject.pose.root_translation)
+    truth_joints = truth_model.pose(poses[0].theta, poses[0].root_rotation, poses[0].root_translation).joints
+    assert np.linalg.norm(placed.joints - truth_joints, axis=1).mean() < 0.01
+    assert subject.fit.coverage > 0.95 and subject.fit.inlier_fraction > 0.95
+
+
+def test_shape_bases_refuse_what_they_cannot_mean():
+    links = BodyModel.template().link_model
+    with pytest.raises(ValueError, match="unknown link 'tail'"):
+        ShapeBasis.scales(links, {"tail": 1.1})
+    with pytest.raises(ValueError, match="must be in"):
+        ShapeBasis.scales(links, {"torso": 0.0})
+    with pytest.raises(ValueError, match="shape must have shape"):
+        BodyModel.template().shaped(SubjectOptions().basis(links), np.zeros(3))
+    with pytest.raises(ValueError, match="centre_sigma must be positive"):
+        SubjectOptions(centre_sigma=0)
