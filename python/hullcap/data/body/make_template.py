@@ -2,7 +2,10 @@
 
 A standard adult (1.75 m) in the calibration T-pose, in the body frame of ``links.json``
 (metres; x = the subject's left, y = back, z = up; origin at the pelvis joint, 0.97 m above
-the floor). The surface is a smooth union of tapered capsules and ellipsoids laid around
+the floor). Its proportions follow the segment lengths of Drillis and Contini (1966) as
+fractions of the body height H, tabulated by Winter, "Biomechanics and Motor Control of
+Human Movement" (4th ed., 2009, Fig. 4.1): hip joints at 0.530 H, knees at 0.285 H,
+ankles at 0.039 H, hand 0.108 H and foot 0.152 H long (``links.json`` places the joints). The surface is a smooth union of tapered capsules and ellipsoids laid around
 the link model, meshed by marching cubes on a 16 mm grid: closed, manifold, outward
 oriented, one piece. Run from the repository root:
 
@@ -40,12 +43,12 @@ def _parts():
         ("cone", (0.06, 0.0, 0.45), (0.19, 0.0, 0.445), 0.065, 0.055),  # shoulder
         ("cone", (0.19, 0.0, 0.45), (0.46, 0.0, 0.45), 0.05, 0.038),  # upper arm
         ("cone", (0.46, 0.0, 0.45), (0.71, 0.0, 0.45), 0.039, 0.027),  # forearm
-        ("ellipsoid", (0.79, -0.005, 0.45), (0.085, 0.048, 0.02)),  # hand, palm down
-        ("ellipsoid", (0.745, -0.05, 0.45), (0.04, 0.014, 0.014)),  # thumb
+        ("ellipsoid", (0.815, -0.005, 0.45), (0.095, 0.048, 0.02)),  # hand, palm down
+        ("ellipsoid", (0.76, -0.05, 0.45), (0.045, 0.014, 0.014)),  # thumb
         ("cone", (0.085, 0.0, -0.06), (0.125, 0.0, -0.47), 0.088, 0.055),  # thigh
         ("cone", (0.125, 0.0, -0.47), (0.15, 0.0, -0.88), 0.054, 0.034),  # shin
         ("ellipsoid", (0.128, 0.012, -0.62), (0.042, 0.05, 0.11)),  # calf
-        ("ellipsoid", (0.155, -0.045, -0.935), (0.048, 0.125, 0.035)),  # foot
+        ("ellipsoid", (0.155, -0.055, -0.935), (0.048, 0.135, 0.035)),  # foot
     ]
     right = []
     for kind, *p in left:
