@@ -201,6 +201,8 @@ class FitOptions:
     one-sided energy)."""
     reverse_points: int
     """Hull points that seek a model partner, spread evenly over the target."""
+    reverse_vertices: int
+    """Model vertices (spread evenly) among which a hull point seeks its partner."""
     model_points: int
     """Model vertices that seek partners when the caller names none (spread evenly)."""
     iterations: int
@@ -278,3 +280,16 @@ def fit_shape(
     the sum of the targets' robust energies plus a Gaussian prior on the shape, one
     standard deviation ``prior_sigma[p]`` worth ``prior_distance`` metres of every pair).
     Returns the shape, the poses, each target's statistics and the iterations made."""
+
+def evaluate(
+    rig: Rig,
+    target: Target,
+    thetas: list[list[float]],
+    root_rotations: list[npt.ArrayLike],
+    root_translations: list[npt.ArrayLike],
+    options: FitOptions,
+    model_points: list[int] | None = None,
+) -> list[dict[str, float]]:
+    """The statistics of each pose as ``fit`` reports them, without fitting (fresh
+    correspondences both ways), the poses spread over the threads: how a search ranks
+    its candidates."""

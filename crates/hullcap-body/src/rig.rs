@@ -84,6 +84,10 @@ pub struct Posed {
 /// Vertices per chunk below which a pose is not worth another thread.
 const MIN_VERTICES_PER_THREAD: usize = 1024;
 
+/// Most skin weights a vertex may have (K): the paper's blends need a few, and a fixed
+/// bound keeps the per-vertex work on the stack.
+pub const MAX_WEIGHTS: usize = 16;
+
 impl Rig {
     /// A rig from a skeleton, rest vertices and normals (body frame) and weights.
     pub fn new(
@@ -100,6 +104,13 @@ impl Rig {
                 array: "normals",
                 got: rest_normals.len(),
                 expected: nv,
+            });
+        }
+        if weights.k > MAX_WEIGHTS {
+            return Err(BodyError::BadParameter {
+                name: "skin weights per vertex (k)",
+                requirement: "at most 16",
+                value: weights.k as f64,
             });
         }
         if weights.k == 0
@@ -300,28 +311,57 @@ impl Rig {
         i: usize,
         row: &mut [[f64; 3]],
     ) {
+        let all: Vec<usize> = (0..self.n_params()).collect();
+        self.vertex_jacobian_columns(pose, root, i, &all, row);
+    }
+
+    /// The columns `params` (indices into (tx, ty, tz, ωx, ωy, ωz, θ…)) of vertex `i`'s
+    /// Jacobian row, one per entry of `params`, into `out`. A fit stage that moves a few
+    /// parameters asks only for those.
+    pub fn vertex_jacobian_columns(
+        &self,
+        pose: &SkeletonPose,
+        root: &RootPose,
+        i: usize,
+        params: &[usize],
+        out: &mut [[f64; 3]],
+    ) {
         let k = self.weights.k;
-        let m = &self.rest_vertices[i];
-        let world = root.rotation * self.skin_vertex(pose, i);
-        for a in 0..3 {
-            row[a] = Vector3::ith(a, 1.0).into();
-            row[3 + a] = Vector3::ith(a, 1.0).cross(&world).into();
+        let m = self.rest_vertices[i];
+        // Where each of the vertex's links puts it, and the blend of those.
+        let mut placed = [Vector3::zeros(); MAX_WEIGHTS];
+        let mut skinned = m;
+        for (c, slot) in placed.iter_mut().enumerate().take(k) {
+            let offset =
+                pose.skin_offset(&self.skeleton, self.weights.index[i * k + c] as usize, &m);
+            *slot = m + offset;
+            skinned += self.weights.weight[i * k + c] * offset;
         }
-        // Per link of this vertex: its weight and where it puts the vertex.
-        for (d, dof) in self.skeleton.dofs().iter().enumerate() {
-            let mut moved = Vector3::zeros();
-            let mut weight = 0.0;
-            for c in 0..k {
-                let j = self.weights.index[i * k + c] as usize;
-                if self.skeleton.moves_with(j, dof.link) {
-                    let w = self.weights.weight[i * k + c];
-                    moved += w * (m + pose.skin_offset(&self.skeleton, j, m));
-                    weight += w;
+        let world = root.rotation * skinned;
+        let dofs = self.skeleton.dofs();
+        for (slot, &p) in out.iter_mut().zip(params) {
+            *slot = match p {
+                0..=2 => Vector3::ith(p, 1.0),
+                3..=5 => Vector3::ith(p - 3, 1.0).cross(&world),
+                _ => {
+                    let d = p - 6;
+                    let link = dofs[d].link;
+                    let mut moved = Vector3::zeros();
+                    let mut weight = 0.0;
+                    for (c, at) in placed.iter().enumerate().take(k) {
+                        if self
+                            .skeleton
+                            .moves_with(self.weights.index[i * k + c] as usize, link)
+                        {
+                            let w = self.weights.weight[i * k + c];
+                            moved += w * at;
+                            weight += w;
+                        }
+                    }
+                    root.rotation * pose.dof_axis[d].cross(&(moved - weight * pose.position[link]))
                 }
             }
-            let centre = pose.position[dof.link];
-            row[6 + d] =
-                (root.rotation * pose.dof_axis[d].cross(&(moved - weight * centre))).into();
+            .into();
         }
     }
 }

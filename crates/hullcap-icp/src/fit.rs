@@ -186,6 +186,44 @@ pub(crate) fn evaluate(
     Ok(found.stats(model_points.len(), energy, sigma, options))
 }
 
+/// The statistics of many poses of one rig against one target, without fitting (fresh
+/// correspondences both ways at each pose): how a search ranks its candidates. The poses
+/// are spread over `options.threads` threads, one pose per thread at a time.
+pub fn evaluate_poses(
+    rig: &Rig,
+    target: &Target,
+    model_points: &[u32],
+    poses: &[Params],
+    options: &FitOptions,
+) -> Result<Vec<FitStats>, IcpError> {
+    options.validate()?;
+    check_points(rig, model_points)?;
+    for p in poses {
+        p.root.validate()?;
+        rig.skeleton().forward(&p.theta)?;
+    }
+    let mut out: Vec<Option<Result<FitStats, IcpError>>> = vec![None; poses.len()];
+    hullcap_core::for_each_chunk_mut(
+        &mut out,
+        resolve_threads(options.threads),
+        1,
+        |offset, chunk| {
+            for (slot, params) in chunk.iter_mut().zip(&poses[offset..]) {
+                *slot = Some(evaluate(rig, target, model_points, params, options, 1));
+            }
+        },
+    )?;
+    out.into_iter()
+        .map(|r| {
+            r.unwrap_or(Err(IcpError::BadParameter {
+                name: "poses",
+                requirement: "all evaluated",
+                value: 0.0,
+            }))
+        })
+        .collect()
+}
+
 struct Fitter<'a> {
     problem: Problem<'a>,
     model_points: &'a [u32],
@@ -472,6 +510,21 @@ mod tests {
         assert!(
             one_sided > 0.1,
             "one-sided: {one_sided} rad off (the test no longer tests anything)"
+        );
+    }
+
+    #[test]
+    fn evaluating_poses_ranks_the_true_pose_first() {
+        let rig = tube();
+        let target = target_at(&rig, &truth());
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).step_by(2).collect();
+        let options = FitOptions::default();
+        let got = evaluate_poses(&rig, &target, &points, &[start(), truth()], &options).unwrap();
+        let alone = evaluate(&rig, &target, &points, &truth(), &options, 1).unwrap();
+        assert_eq!(got[1], alone);
+        assert!(got[1].inlier_fraction > 0.99 && got[1].coverage > 0.99);
+        assert!(
+            got[0].inlier_fraction + got[0].coverage < got[1].inlier_fraction + got[1].coverage
         );
     }
 

@@ -8,6 +8,8 @@
 //! and in what the residual measures: a hull point seeks its partner among all the posed
 //! model vertices (not only the sparser model points), and its pair is measured along the
 //! hull's normal, so that the spacing of the model's vertices does not count as error.
+//! (The vertices it chooses among are an even subset, [`FitOptions::reverse_vertices`]:
+//! the kd-tree over them is rebuilt at every iteration.)
 
 use crate::{FitOptions, FitStats, IcpError, Residual, Target};
 use hullcap_body::{Rig, RootPose, Shape, SkeletonPose};
@@ -121,6 +123,12 @@ fn residual(kind: Residual, target: &Target, v: &Vector3<f64>, t: usize) -> ([f6
     }
 }
 
+/// About `count` indices of `0..n` spread evenly (every m-th).
+pub fn spread(n: usize, count: usize) -> Vec<u32> {
+    let step = (n / count.max(1)).max(1);
+    (0..n as u32).step_by(step).collect()
+}
+
 /// σ from the median model→hull distance (1.4826·median estimates a Gaussian's σ),
 /// bounded below by `sigma_min`.
 pub(crate) fn robust_sigma(distances: &[f64], sigma_min: f64) -> f64 {
@@ -193,7 +201,7 @@ impl Problem<'_> {
 
     /// The gated pairs of the model points posed at (`pose`, `root`): each model point's
     /// nearest target key, then (with `reverse`) each hull sample's nearest posed model
-    /// vertex, weighted by `options.reverse_weight`.
+    /// vertex (of an even subset), weighted by `options.reverse_weight`.
     pub(crate) fn correspond(
         &self,
         pose: &SkeletonPose,
@@ -222,7 +230,7 @@ impl Problem<'_> {
             }
         }
         if reverse {
-            let every: Vec<u32> = (0..self.rig.n_vertices() as u32).collect();
+            let every = spread(self.rig.n_vertices(), options.reverse_vertices);
             let (all_points, all_normals) = self.posed_points(pose, root, &every)?;
             let model = NormalKdTree::build(
                 &all_points,
@@ -252,7 +260,7 @@ impl Problem<'_> {
                 let p = Vector3::from(all_points[nb.index as usize]);
                 let (_, _, d) = residual(Residual::PointToPlane, self.target, &p, k as usize);
                 out.pairs.push(Pair {
-                    vertex: nb.index as u32,
+                    vertex: every[nb.index as usize],
                     target: k,
                     weight,
                     kind: Residual::PointToPlane,
@@ -303,7 +311,7 @@ impl Problem<'_> {
             pairs,
             || Sums::zeros(n),
             |sums, share| {
-                let mut row = vec![[0.0; 3]; self.rig.n_params()];
+                let mut row = vec![[0.0; 3]; active.len()];
                 let mut shape_row = vec![[0.0; 3]; n_shape];
                 let mut scratch = vec![Vector3::zeros(); n_shape];
                 let mut j = vec![[0.0; 3]; n];
@@ -314,7 +322,8 @@ impl Problem<'_> {
                     let (rho, e) = lorentzian(d, sigma);
                     let w = p.weight * e;
                     sums.energy += p.weight * rho;
-                    self.rig.vertex_jacobian(pose, root, i, &mut row);
+                    self.rig
+                        .vertex_jacobian_columns(pose, root, i, active, &mut row);
                     if let Some(s) = shape {
                         s.shape.vertex_jacobian(
                             pose,
@@ -325,7 +334,7 @@ impl Problem<'_> {
                             &mut shape_row,
                         );
                     }
-                    let columns = active.iter().map(|&a| &row[a]).chain(shape_row.iter());
+                    let columns = row.iter().chain(shape_row.iter());
                     let nq = &self.target.normals[t];
                     for (slot, col) in j.iter_mut().zip(columns) {
                         *slot = match p.kind {

@@ -45,6 +45,11 @@ pub struct FitOptions {
     pub reverse_weight: f64,
     /// Number of hull points that seek a model partner (spread evenly over the target).
     pub reverse_points: usize,
+    /// Number of model vertices (spread evenly over the mesh) among which a hull point
+    /// seeks its partner. 3 000 of a 9 000-vertex body lie about 2.5 cm apart; the pair
+    /// is measured along the hull's normal, so that spacing costs little accuracy, and the
+    /// kd-tree over them, rebuilt at every iteration, a third of the time of all of them.
+    pub reverse_vertices: usize,
     /// Largest number of iterations per stage (each with new correspondences).
     pub iterations: usize,
     /// A stage ends when an iteration lowers the energy by less than this fraction.
@@ -76,6 +81,7 @@ impl Default for FitOptions {
             sigma_min: 0.004,
             reverse_weight: 0.0,
             reverse_points: 1500,
+            reverse_vertices: 3000,
             iterations: 10,
             tolerance: 1e-3,
             rounds: 4,
@@ -119,6 +125,7 @@ impl FitOptions {
             ("iterations", self.iterations),
             ("rounds", self.rounds),
             ("reverse_points", self.reverse_points),
+            ("reverse_vertices", self.reverse_vertices),
         ] {
             if value == 0 {
                 return bad(name, "at least 1", 0.0);

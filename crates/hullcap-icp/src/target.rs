@@ -50,8 +50,7 @@ impl Target {
 
     /// About `count` target indices spread evenly over the points (every n-th).
     pub fn samples(&self, count: usize) -> Vec<u32> {
-        let step = (self.points.len() / count.max(1)).max(1);
-        (0..self.points.len() as u32).step_by(step).collect()
+        crate::spread(self.points.len(), count)
     }
 
     /// λ of the kd-tree's keys.

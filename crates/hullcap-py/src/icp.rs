@@ -206,3 +206,42 @@ pub(crate) fn fit_shape<'py>(
         found.iterations,
     ))
 }
+
+/// The statistics of many poses without fitting; see `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (rig, target, thetas, root_rotations, root_translations, options, model_points=None))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn evaluate<'py>(
+    py: Python<'py>,
+    rig: PyRef<'py, Rig>,
+    target: PyRef<'py, Target>,
+    thetas: Vec<Vec<f64>>,
+    root_rotations: Vec<Bound<'py, PyAny>>,
+    root_translations: Vec<Bound<'py, PyAny>>,
+    options: PyRef<'py, FitOptions>,
+    model_points: Option<Vec<i64>>,
+) -> PyResult<Vec<Bound<'py, PyDict>>> {
+    let engine_options = options.engine()?;
+    if root_rotations.len() != thetas.len() || root_translations.len() != thetas.len() {
+        return Err(PyValueError::new_err(format!(
+            "evaluate: {} thetas but {} root rotations and {} root translations",
+            thetas.len(),
+            root_rotations.len(),
+            root_translations.len()
+        )));
+    }
+    let points = self::model_points(model_points, rig.rig.n_vertices(), &options)?;
+    let poses = thetas
+        .into_iter()
+        .enumerate()
+        .map(|(f, theta)| {
+            let root = root_pose(Some(&root_rotations[f]), Some(&root_translations[f]))?;
+            Ok(Params { root, theta })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    let (rig, target) = (&rig.rig, &target.target);
+    let stats = detached(py, || {
+        hullcap_icp::evaluate_poses(rig, target, &points, &poses, &engine_options)
+    })?;
+    stats.iter().map(|s| stats_dict(py, s)).collect()
+}

@@ -26,6 +26,7 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<icp::Target>()?;
     m.add_function(wrap_pyfunction!(icp::fit, m)?)?;
     m.add_function(wrap_pyfunction!(icp::fit_shape, m)?)?;
+    m.add_function(wrap_pyfunction!(icp::evaluate, m)?)?;
     m.add_class::<options::FitOptions>()?;
     m.add_class::<body::Shape>()?;
     Ok(())

@@ -19,6 +19,7 @@ pub(crate) struct FitOptions {
     sigma_min: f64,
     reverse_weight: f64,
     reverse_points: usize,
+    reverse_vertices: usize,
     model_points: usize,
     iterations: usize,
     tolerance: f64,
@@ -45,6 +46,7 @@ impl Default for FitOptions {
             sigma_min: e.sigma_min,
             reverse_weight: e.reverse_weight,
             reverse_points: e.reverse_points,
+            reverse_vertices: e.reverse_vertices,
             model_points: DEFAULT_MODEL_POINTS,
             iterations: e.iterations,
             tolerance: e.tolerance,
@@ -107,6 +109,7 @@ impl FitOptions {
             sigma_min: self.sigma_min,
             reverse_weight: self.reverse_weight,
             reverse_points: self.reverse_points,
+            reverse_vertices: self.reverse_vertices,
             iterations: self.iterations,
             tolerance: self.tolerance,
             rounds: self.rounds,
@@ -123,8 +126,7 @@ impl FitOptions {
 
     /// About `model_points` vertex indices of a mesh of `n` vertices, every n-th.
     pub(crate) fn default_model_points(&self, n: usize) -> Vec<u32> {
-        let step = (n / self.model_points.max(1)).max(1);
-        (0..n as u32).step_by(step).collect()
+        hullcap_icp::spread(n, self.model_points)
     }
 
     fn fields<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
@@ -136,6 +138,7 @@ impl FitOptions {
         d.set_item("sigma_min", self.sigma_min)?;
         d.set_item("reverse_weight", self.reverse_weight)?;
         d.set_item("reverse_points", self.reverse_points)?;
+        d.set_item("reverse_vertices", self.reverse_vertices)?;
         d.set_item("model_points", self.model_points)?;
         d.set_item("iterations", self.iterations)?;
         d.set_item("tolerance", self.tolerance)?;
