@@ -5,8 +5,8 @@ Renders each sequence once into ``data/devset/`` (ignored by git), tracks it as
 ``--silhouettes exact``, from the exact masks too, and prints one table: per sequence
 the subject model's limb-length errors against the truth, the mean joint error over the
 30 static calibration frames, MPJPE raw and offset-removed over the whole sequence,
-frames lost and frames/s. ``--stills DIR`` also writes an overlay still of each run's
-worst frame.
+frames lost, frames re-acquired and frames/s. Each run's folder also gets ``frames.csv``:
+per frame the status, the fit's quality both ways and the true mean joint error.
 
     .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact]
 """
@@ -17,6 +17,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -25,14 +26,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
 
 from hullcap.sequence import Sequence  # noqa: E402
-from hullcap.tracking import Tracker  # noqa: E402
+from hullcap.results import RECOVERED, STATUS_NAMES  # noqa: E402
+from hullcap.tracking import Tracker, TrackerOptions  # noqa: E402
 
 
-def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None) -> dict:
+def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions) -> dict:
     seq_path = devset.render(devset_dir, name)
     seq = Sequence(seq_path)
     truth = devset.Truth.load(devset_dir, seq_path)
-    tracker = Tracker(seq, use_silhouettes=(mode == "exact"))
+    tracker = Tracker(seq, options=replace(options, use_silhouettes=(mode == "exact")))
     t0 = time.perf_counter()
     result = tracker.run(out / f"{name}-{mode}", resume=False, show_progress=True, frames=frames)
     seconds = time.perf_counter() - t0
@@ -44,10 +46,15 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None) -
                           slice(0, devset.CALIBRATION_FRAMES))
     err = np.linalg.norm(result.joints[:, [result.model.joint_names.index(j) for j in truth.names]]
                          - truth.positions[:n], axis=2).mean(1)
+    frames_csv = ["frame,status,inlier_fraction,coverage,quality,error_mm"] + [
+        f"{f},{STATUS_NAMES[result.status[f]]},{result.inlier_fraction[f]:.4f},{result.coverage[f]:.4f},"
+        f"{result.quality[f]:.4f},{1000 * err[f]:.1f}" for f in range(n)]
+    (out / f"{name}-{mode}" / "frames.csv").write_text("\n".join(frames_csv) + "\n")
     return {"sequence": name, "silhouettes": mode, "cameras": len(seq.cameras), "frames": n,
             "limb_error_pct": {k: 100 * (got[k] - want[k]) / want[k] for k in want},
             "static_mm": static.mpjpe_mm, "mpjpe_mm": whole.mpjpe_mm,
             "mpjpe_offset_removed_mm": whole.mpjpe_offset_removed_mm, "lost": whole.lost,
+            "reacquired": int((result.status == RECOVERED).sum()),
             "fps": n / seconds, "fit_fps": n / max(result.seconds.get("fit", 0.0), 1e-9),
             "worst_frame": int(np.nanargmax(np.where(result.failed, -1, err))),
             "per_joint_mm": whole.per_joint_mm}
@@ -56,13 +63,13 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None) -
 def table(rows: list[dict]) -> str:
     limbs = list(devset.LIMBS)
     head = ("| sequence | cams | silhouettes | " + " | ".join(f"{l} (%)" for l in limbs)
-            + " | static (mm) | MPJPE raw (mm) | offset removed (mm) | lost | frames/s | fit frames/s |")
+            + " | static (mm) | MPJPE raw (mm) | offset removed (mm) | lost | re-acquired | frames/s | fit frames/s |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         lines.append(f"| {r['sequence']} | {r['cameras']} | {r['silhouettes']} | "
                      + " | ".join(f"{r['limb_error_pct'][l]:+.1f}" for l in limbs)
                      + f" | {r['static_mm']:.1f} | {r['mpjpe_mm']:.1f} | {r['mpjpe_offset_removed_mm']:.1f} | "
-                       f"{r['lost']} of {r['frames']} | {r['fps']:.1f} | {r['fit_fps']:.1f} |")
+                       f"{r['lost']} of {r['frames']} | {r['reacquired']} | {r['fps']:.1f} | {r['fit_fps']:.1f} |")
     return "\n".join(lines)
 
 
@@ -74,6 +81,8 @@ def main():
     ap.add_argument("--frames", type=int, help="track only the first N frames of each")
     ap.add_argument("--out", default=str(devset.CACHE / "results"), help="where the runs are written")
     ap.add_argument("--json", help="also write the rows as JSON here")
+    ap.add_argument("--no-refine-joints", dest="refine", action="store_false",
+                    help="build the subject model from the calibration pose only")
     args = ap.parse_args()
     devset_dir = devset.find(args.devset)
     if devset_dir is None:
@@ -81,7 +90,7 @@ def main():
     rows = []
     for name in args.only or devset.names(devset_dir):
         for mode in args.silhouettes:
-            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames))
+            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, TrackerOptions(refine_joints=args.refine)))
             print(table(rows[-1:]).splitlines()[-1], flush=True)
     print("\n" + table(rows))
     print("\nper joint, raw (mm):")

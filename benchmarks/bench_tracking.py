@@ -20,7 +20,7 @@ from pathlib import Path
 from hullcap.evaluate import accuracy
 from hullcap.sequence import Sequence
 from hullcap.synth import synthesize
-from hullcap.tracking import Tracker
+from hullcap.tracking import Tracker, TrackerOptions
 
 
 def main():
@@ -35,7 +35,7 @@ def main():
                                   silhouettes=True, show_progress=False)
             seq = Sequence(seq_path)
             for label, given in (("exact silhouettes", True), ("background subtraction", False)):
-                tracker = Tracker(seq, use_silhouettes=given)
+                tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=given))
                 t0 = time.perf_counter()
                 result = tracker.run(Path(tmp) / f"{subject}-{given}", resume=False, show_progress=False)
                 total = time.perf_counter() - t0

@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, fit
+from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, TrackerOptions, fit
 from hullcap.cameras import ring
 from hullcap.cli import main
 from hullcap.evaluate import accuracy
@@ -56,7 +56,7 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     assert acc.mean_mm < 25, acc.table()
     # The outputs of FORMATS.md.
     header = (tmp_path / "out" / "joints.csv").read_text().splitlines()
-    assert header[0] == "frame,time,joint,x,y,z" and len(header) == 1 + 20 * 21
+    assert header[0] == "frame,time,joint,x,y,z,status" and len(header) == 1 + 20 * 21
     pose = np.load(tmp_path / "out" / "pose.npz")
     assert pose["theta"].shape == (20, 29) and not pose["failed"].any()
     assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 29
@@ -79,9 +79,10 @@ def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, 
 def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, monkeypatch):
     seq = Sequence(short_sequence)
     out = tmp_path / "out"
-    tracker = Tracker(seq)
+    options = TrackerOptions(refine_joints=False)
+    tracker = Tracker(seq, options=options)
     calls = {"n": 0}
-    real = Tracker.fit_frame
+    real = Tracker._track
 
     def interrupting(self, *args):
         calls["n"] += 1
@@ -89,16 +90,16 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
             raise KeyboardInterrupt
         return real(self, *args)
 
-    monkeypatch.setattr(Tracker, "fit_frame", interrupting)
+    monkeypatch.setattr(Tracker, "_track", interrupting)
     with pytest.raises(KeyboardInterrupt):
         tracker.run(out, show_progress=False, frames=16)
     assert (out / ".checkpoint.npz").is_file() and not (out / "pose.npz").exists()
-    monkeypatch.setattr(Tracker, "fit_frame", real)
-    fresh = Tracker(seq)
+    monkeypatch.setattr(Tracker, "_track", real)
+    fresh = Tracker(seq, options=options)
     resumed = fresh.run(out, show_progress=False, frames=16)
     assert fresh.seconds.get("subject", 0) == 0  # the model came from the checkpoint's run
     assert not resumed.failed.any() and not (out / ".checkpoint.npz").exists()
-    straight = Tracker(seq).run(tmp_path / "straight", show_progress=False, frames=16)
+    straight = Tracker(seq, options=options).run(tmp_path / "straight", show_progress=False, frames=16)
     assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
 
 

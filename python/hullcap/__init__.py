@@ -14,7 +14,8 @@ from hullcap.links import LinkModel
 from hullcap.mesh import Surface, read_mesh, write_mesh
 from hullcap.sequence import Sequence
 from hullcap.subject import build_subject
-from hullcap.tracking import Tracker, TrackingResult
+from hullcap.results import TrackingResult, load_result, smooth_joints
+from hullcap.tracking import Tracker, TrackerOptions
 
 __all__ = [
     "BodyModel",
@@ -29,12 +30,15 @@ __all__ = [
     "Sequence",
     "Surface",
     "Tracker",
+    "TrackerOptions",
     "TrackingResult",
     "__version__",
     "build_subject",
     "fit",
+    "load_result",
     "read_mesh",
     "skin_weights",
+    "smooth_joints",
     "visual_hull",
     "write_mesh",
 ]

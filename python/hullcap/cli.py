@@ -13,14 +13,17 @@ __all__ = ["main"]
 
 def _track(args) -> int:
     from hullcap.body import BodyModel
+    from hullcap.results import RECOVERED
     from hullcap.sequence import Sequence
-    from hullcap.tracking import Tracker
+    from hullcap.tracking import Tracker, TrackerOptions
 
     seq = Sequence(args.sequence)
     model = BodyModel.load(args.model) if args.model else None
-    tracker = Tracker(seq, model=model, voxel_size=args.voxel, background=args.background,
-                      use_silhouettes=not args.ignore_silhouettes)
-    result = tracker.run(args.out, resume=not args.restart, frames=args.frames)
+    options = TrackerOptions(voxel_size=args.voxel, background=args.background,
+                             use_silhouettes=not args.ignore_silhouettes, refine_joints=args.refine_joints)
+    tracker = Tracker(seq, model=model, options=options)
+    result = tracker.run(args.out, resume=not args.restart, frames=args.frames, interpolate=args.interpolate,
+                         smooth_hz=args.smooth)
     from hullcap.export import write_overlays, write_report
 
     write_report(Path(args.out) / "report.png", result)
@@ -29,7 +32,8 @@ def _track(args) -> int:
         write_overlays(args.out, seq, result)
         made += ", overlay/"
     lost = int(result.failed.sum())
-    print(f"{args.out}: {len(result.failed)} frames tracked, {lost} lost; {made}")
+    recovered = int((result.status == RECOVERED).sum())
+    print(f"{args.out}: {len(result.failed)} frames tracked, {lost} lost, {recovered} re-acquired; {made}")
     return 0
 
 
@@ -46,7 +50,7 @@ def _demo(args) -> int:
     from hullcap.evaluate import accuracy
     from hullcap.sequence import Sequence
     from hullcap.synth import synthesize
-    from hullcap.tracking import Tracker
+    from hullcap.tracking import Tracker, TrackerOptions
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(args.out) if args.out else Path(tmp)
@@ -58,7 +62,7 @@ def _demo(args) -> int:
         seq = Sequence(seq_path)
         print("tracking: background subtraction → visual hull → subject model from frame 0 → "
               "hierarchical robust ICP per frame")
-        tracker = Tracker(seq, use_silhouettes=False)
+        tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=False))
         t0 = time.perf_counter()
         result = tracker.run(root / "result", resume=False)
         track_s = time.perf_counter() - t0
@@ -79,9 +83,13 @@ def _demo(args) -> int:
 
 def _export(args) -> int:
     from hullcap.export import write_bvh, write_c3d, write_glb
-    from hullcap.tracking import load_result, write_joints_csv
+    from hullcap.results import load_result, smooth_joints, write_joints_csv
 
     result = load_result(args.out)
+    if args.interpolate:
+        result = result.interpolated()
+    if args.smooth:
+        result.joints = smooth_joints(result.joints, result.fps, args.smooth)
     names = {"bvh": "motion.bvh", "glb": "model.glb", "c3d": "joints.c3d", "csv": "joints.csv"}
     target = Path(args.to) if args.to else Path(args.out) / names[args.format]
     motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
@@ -95,6 +103,15 @@ def _export(args) -> int:
         write_joints_csv(target, result)
     print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
     return 0
+
+
+def _output_options(p) -> None:
+    p.add_argument("--interpolate", action="store_true",
+                   help="fill failed frames between fitted ones from their neighbours in the outputs "
+                        "(marked 'interpolated'; pose.npz keeps the raw result)")
+    p.add_argument("--smooth", type=float, metavar="HZ",
+                   help="also low-pass filter the joint trajectories without lag (Butterworth, forwards and "
+                        "backwards) with this cut-off: track writes joints_smooth.csv, export filters what it writes")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -118,6 +135,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--frames", type=int, help="track only the first N frames")
     t.add_argument("--restart", action="store_true", help="start over instead of resuming")
     t.add_argument("--no-overlay", action="store_true", help="skip the overlay videos (overlay/<cam>.mp4)")
+    t.add_argument("--no-refine-joints", dest="refine_joints", action="store_false",
+                   help="build the subject's model from the calibration pose only (default: refine its proportions "
+                        "and joint centres from the first seconds of motion, then track from the start)")
+    _output_options(t)
     t.set_defaults(run=_track)
 
     s = sub.add_parser("synth", help="render a synthetic sequence with ground truth", description=(
@@ -152,6 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="bvh: motion.bvh (Blender, MotionBuilder); glb: model.glb (skinned mesh + motion); "
                         "c3d: joints.c3d (biomechanics tools; needs ezc3d); csv: joints.csv")
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
+    _output_options(e)
     e.set_defaults(run=_export)
     return ap
 

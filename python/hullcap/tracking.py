@@ -1,15 +1,23 @@
-"""Tracking a whole sequence (DESIGN.md §9): frame by frame, streamed, resumable.
+"""Tracking a whole sequence (docs/design.md, "Tracking"): frame by frame, streamed,
+resumable.
 
-For each frame: silhouettes (given, or by background subtraction) → visual hull → a fit
-from the pose predicted by constant velocity → a check of the fit (inlier fraction and
-mean residual); a bad fit is retried from the previous pose and from perturbed starts, and
-a frame that still fails is marked failed while tracking goes on. The first frame builds
-the subject's model (:mod:`hullcap.subject`) unless one is given.
+The subject's model is built at the first frame whose hull it explains (the calibration
+pose) and, unless told otherwise, refined: the first seconds are tracked with it, and its
+proportions and joint centres are fitted again over frames of that motion, where the
+joints bend (:func:`hullcap.build_subject`). Tracking then starts over with the refined
+model.
 
-Outputs (FORMATS.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``,
-``model.glb``; all written atomically.
-A checkpoint (``.checkpoint.npz``) written every few frames lets an interrupted run
-resume where it stopped.
+Each frame: silhouettes (given, or by background subtraction) → visual hull → a fit from
+the pose predicted by constant velocity, then from the last good pose → a judgement of
+the fit: its quality (how much of the hull it explains both ways,
+½(inlier fraction + coverage)) against the median quality of the recent good frames,
+which carries what this camera rig and this subject's hulls can give. A fit well below it
+starts a search from the hull itself (:mod:`hullcap.reacquire`); the frame is
+``recovered`` when that brings the quality back, ``failed`` when not.
+
+Outputs (docs/formats.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``,
+``model.glb``, all written atomically. A checkpoint (``.checkpoint.npz``) written every
+few frames lets an interrupted run resume where it stopped.
 """
 
 from __future__ import annotations
@@ -17,7 +25,7 @@ from __future__ import annotations
 import io
 import time
 import warnings
-from collections import defaultdict
+from collections import defaultdict, deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,121 +33,115 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
-from hullcap.export.bvh import write_bvh
-from hullcap.export.gltf import write_glb
-from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, yaw_rotation
+from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target
+from hullcap.guided import GuidedOptions, GuidedSegmenter
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
+from hullcap.render import render_depth
+from hullcap.reacquire import PoseSearch, SearchOptions, quality
+from hullcap.results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap.sequence import Sequence
 from hullcap.silhouette import background_model
-from hullcap.subject import build_subject, place_model
+from hullcap.subject import SubjectOptions, build_subject, place_model
 
-__all__ = ["Tracker", "TrackingResult", "write_outputs", "load_result"]
+__all__ = ["Tracker", "TrackerOptions"]
 
 CHECKPOINT = ".checkpoint.npz"
 
 
-@dataclass
-class TrackingResult:
-    """Per-frame results of a run (F frames); failed frames hold NaN."""
-
-    model: BodyModel
-    fps: float
-    theta: np.ndarray
-    root_rotation: np.ndarray
-    root_translation: np.ndarray
-    joints: np.ndarray
-    failed: np.ndarray
-    energy: np.ndarray
-    inlier_fraction: np.ndarray
-    mean_residual: np.ndarray
-    iterations: np.ndarray
-    seconds: dict = field(default_factory=dict)
-    """Seconds spent per stage: silhouettes, hull, fit, subject."""
-
-    @classmethod
-    def empty(cls, model: BodyModel, n: int, fps: float) -> TrackingResult:
-        nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
-        return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
-                   np.ones(n, bool), nan(), nan(), nan(), np.zeros(n, np.int64))
-
-    @classmethod
-    def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
-        """A result from the arrays of :meth:`arrays` (a checkpoint, or ``pose.npz``,
-        whose joints are recomputed from the model)."""
-        joints = a["joints"] if "joints" in a else None
-        result = cls(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
-                     np.full((len(a["theta"]), len(model.joint_names), 3), np.nan) if joints is None else joints,
-                     a["failed"], a["energy"], a["inlier_fraction"], a["mean_residual"], a["iterations"])
-        if joints is None:
-            for f in np.flatnonzero(~result.failed):
-                result.joints[f] = model.pose(result.theta[f], result.root_rotation[f],
-                                              result.root_translation[f], clamp=False).joints
-        return result
-
-    def record(self, frame: int, result: FitResult) -> None:
-        p = result.pose
-        self.theta[frame], self.root_rotation[frame], self.root_translation[frame] = p.theta, p.root_rotation, p.root_translation
-        self.joints[frame] = self.model.pose(p.theta, p.root_rotation, p.root_translation).joints
-        self.failed[frame] = False
-        self.energy[frame], self.inlier_fraction[frame] = result.energy, result.inlier_fraction
-        self.mean_residual[frame], self.iterations[frame] = result.mean_residual, result.iterations
-
-    def arrays(self) -> dict:
-        return {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
-                "theta": self.theta, "dof_names": np.array(self.model.dof_names),
-                "joint_names": np.array(self.model.joint_names), "failed": self.failed,
-                "energy": self.energy, "inlier_fraction": self.inlier_fraction,
-                "mean_residual": self.mean_residual, "iterations": self.iterations,
-                "joints": self.joints, "fps": self.fps}
-
-
-@dataclass
-class Tracker:
-    """Tracks a sequence folder.
+@dataclass(frozen=True)
+class TrackerOptions:
+    """Every choice of a tracking run.
 
     Attributes:
-        sequence: the input (:class:`~hullcap.sequence.Sequence`).
-        model: the subject's model; ``None`` = build it from the first frame.
         voxel_size: hull resolution (metres).
         background: ``"statistical"`` or ``"mog2"``, used when the sequence has no
             silhouettes (or `use_silhouettes` is False).
         use_silhouettes: use the sequence's silhouettes when it has them.
-        min_inlier_fraction, max_mean_residual: a fit passes when at least this fraction
-            of model points lies within 2 cm of the hull and the mean pair distance is
-            at most this (metres). A hull bulges beyond the body between the views
-            (more with fewer cameras and in crouched poses): a good fit on 6–8 cameras
-            has 75–85 % inliers and 13–16 mm mean distance, a lost limb far less.
-        retries: perturbed restarts tried after a failed fit.
-        fit_options: passed to :func:`hullcap.fitting.fit` (default: two hierarchical
-            passes; a frame starts close to its answer).
+        guided: with statistical background subtraction, guide each frame's silhouettes by
+            the model at its predicted pose and by the subject's colours
+            (:mod:`hullcap.guided`); the statistical test alone otherwise.
+        guidance: the guided silhouettes' options.
+        fit: the per-frame fit (two-sided by default; ``reverse_weight=0`` is the paper's
+            one-sided energy).
+        subject: how the subject's model is built.
+        refine_joints: after building the model, track the first `calibration_seconds`,
+            fit the model's proportions and joint centres again over `calibration_frames`
+            frames of them, and track from the start with the refined model.
+        calibration_seconds, calibration_frames: see `refine_joints`.
+        quality_window: the good frames (most recent) whose median quality is the
+            reference a new frame is judged against.
+        quality_margin: a fit is good when its quality is at most this far below the
+            reference. Quality is a fraction of points (0…1); in good tracking it varies by
+            a few hundredths from frame to frame, a lost limb costs about a tenth.
+        min_quality: a fit below this is never good, whatever the reference.
+        min_subject_quality: the quality the subject's model must reach in a frame for
+            tracking to start there. A calibration pose seen by the cameras is explained to
+            0.85–0.95; a frame that does not show the person (noise, clutter, a half-empty
+            volume) far less.
+        reacquire: search from the hull when a fit is not good (else the frame fails).
+        search: the search's options.
     """
 
-    sequence: Sequence
-    model: BodyModel | None = None
     voxel_size: float = 0.01
     background: str = "statistical"
     use_silhouettes: bool = True
-    min_inlier_fraction: float = 0.6
-    max_mean_residual: float = 0.03
-    retries: int = 4
-    fit_options: FitOptions = field(default_factory=lambda: FitOptions(rounds=2))
+    guided: bool = True
+    guidance: GuidedOptions = field(default_factory=GuidedOptions)
+    fit: FitOptions = field(default_factory=lambda: FitOptions(rounds=2, reverse_weight=1.0))
+    subject: SubjectOptions = field(default_factory=SubjectOptions)
+    refine_joints: bool = True
+    calibration_seconds: float = 3.0
+    calibration_frames: int = 8
+    quality_window: int = 30
+    quality_margin: float = 0.1
+    min_quality: float = 0.5
+    min_subject_quality: float = 0.75
+    reacquire: bool = True
+    search: SearchOptions = field(default_factory=SearchOptions)
     seed: int = 0
 
     def __post_init__(self):
-        self._bounds = capture_volume(self.sequence.cameras)
+        if self.background not in ("statistical", "mog2"):
+            raise ValueError(f"background must be 'statistical' or 'mog2', got {self.background!r}")
+        if not self.voxel_size > 0:
+            raise ValueError(f"voxel_size must be positive, got {self.voxel_size}")
+        if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
+            raise ValueError("calibration_frames must be >= 2, calibration_seconds > 0, quality_window >= 1")
+
+
+class Tracker:
+    """Tracks a sequence folder (see the module documentation).
+
+    Args:
+        sequence: the input.
+        model: the subject's model from an earlier run (``None``: build it).
+        options: see :class:`TrackerOptions`.
+    """
+
+    def __init__(self, sequence: Sequence, model: BodyModel | None = None, options: TrackerOptions | None = None):
+        self.sequence = sequence
+        self.model = model
+        self.options = options or TrackerOptions()
+        self._bounds = capture_volume(sequence.cameras)
         self._backgrounds = None
+        self._guided = None
         self.seconds: dict = defaultdict(float)
         self.problems: list[str] = []
         """Frames and views left out, and why."""
 
-    # -- one frame ---------------------------------------------------------------------
+    # -- one frame's input -------------------------------------------------------------
 
-    def masks(self, frame: int) -> list[np.ndarray]:
-        """The silhouettes of `frame`, given or by background subtraction."""
+    @property
+    def _given_silhouettes(self) -> bool:
+        return self.options.use_silhouettes and self.sequence.has_silhouettes
+
+    def masks(self, frame: int, prior=None) -> list[np.ndarray]:
+        """The silhouettes of `frame`: given, or by background subtraction, guided by the
+        model at a pose (`prior`: ``(model, PoseParameters)``) when the options say so."""
         t0 = time.perf_counter()
         seq = self.sequence
-        if self.use_silhouettes and seq.has_silhouettes:
+        if self._given_silhouettes:
             masks = []
             for cam in seq.cameras:
                 try:
@@ -148,112 +150,183 @@ class Tracker:
                     self.problems.append(f"frame {frame}: {e}")
                     masks.append(np.zeros((cam.height, cam.width), np.uint8))
         else:
-            if self._backgrounds is None:
-                self._backgrounds = [background_model(seq.background(i), self.background)
-                                     for i in range(len(seq.cameras))]
-            masks = [m.mask(img) for m, img in zip(self._backgrounds, seq.images(frame))]
+            images = seq.images(frame)
+            segmenters = self._segmenters()
+            if segmenters is None:
+                masks = [m.mask(img) for m, img in zip(self._backgrounds, images)]
+            else:
+                priors = self._silhouettes(*prior) if prior is not None else [None] * len(images)
+                masks = [s.mask(img, p) for s, img, p in zip(segmenters, images, priors)]
         self.seconds["silhouettes"] += time.perf_counter() - t0
         return masks
 
-    def hull(self, frame: int):
-        masks = self.masks(frame)
+    def _segmenters(self):
+        """The background models; the guided segmenters built on them, or None."""
+        if self._backgrounds is None:
+            seq = self.sequence
+            self._backgrounds = [background_model(seq.background(i), self.options.background)
+                                 for i in range(len(seq.cameras))]
+            if self.options.guided and self.options.background == "statistical":
+                self._guided = [GuidedSegmenter(b, self.options.guidance) for b in self._backgrounds]
+        return self._guided
+
+    def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
+        """The model's (H, W) bool silhouette at `pose` in every view."""
+        v = model.pose(pose.theta, pose.root_rotation, pose.root_translation).vertices
+        return [render_depth(cam, v, model.faces)[1] >= 0 for cam in self.sequence.cameras]
+
+    def _guides(self) -> bool:
+        """Whether silhouettes are guided by the model."""
+        return not self._given_silhouettes and self._segmenters() is not None
+
+    def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False) -> None:
+        """Teach the guided segmenters the subject's and background's colours from a frame
+        in which `model` is fitted at `pose` (`fresh`: forget what they knew); no-op when
+        the silhouettes are not guided."""
+        if not self._guides():
+            return
+        for seg, img, sil in zip(self._guided, self.sequence.images(frame), self._silhouettes(model, pose)):
+            if fresh:
+                seg.colours.clear()
+            seg.learn(img, sil)
+
+    def hull(self, frame: int, prior=None):
+        """The visual hull of `frame` (silhouettes guided by `prior`, see :meth:`masks`);
+        `ValueError` when there is none."""
+        masks = self.masks(frame, prior)
         t0 = time.perf_counter()
         report = HullReport()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # views left out are recorded in `problems`
-            surface = visual_hull(masks, self.sequence.cameras, self.voxel_size, self._bounds, report)
-        self.problems += [f"frame {frame}: camera {c!r} left out ({why})" for c, why in report.skipped.items()]
-        self.seconds["hull"] += time.perf_counter() - t0
-        return surface
-
-    def passes(self, result: FitResult) -> bool:
-        return (result.inlier_fraction >= self.min_inlier_fraction
-                and result.mean_residual <= self.max_mean_residual)
-
-    def fit_frame(self, model: BodyModel, surface, starts: list[PoseParameters]) -> tuple[FitResult, bool]:
-        """Fit from each start in turn, then from `retries` perturbed copies of the first,
-        until a fit passes. Returns the best fit and whether it passed."""
-        t0 = time.perf_counter()
-        target = make_target(surface)
-        best = None
-        for start in self._candidates(model, starts):
-            result = fit(model, target, start, self.fit_options)
-            if best is None or (self.passes(result), -result.energy) > (self.passes(best), -best.energy):
-                best = result
-            if self.passes(result):
-                break
-        self.seconds["fit"] += time.perf_counter() - t0
-        return best, self.passes(best)
-
-    def _candidates(self, model: BodyModel, starts: list[PoseParameters]):
-        yield from starts
-        rng = np.random.default_rng(self.seed)
-        lim = model.link_model.dof_limits
-        base = starts[0]
-        for _ in range(self.retries):
-            turn = yaw_rotation(rng.normal(0, 0.15))
-            yield PoseParameters(np.clip(base.theta + rng.normal(0, 0.15, model.n_dofs), lim[:, 0], lim[:, 1]),
-                                 turn @ base.root_rotation, base.root_translation + rng.normal(0, 0.03, 3))
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # views left out are recorded in `problems`
+                return visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self._bounds, report)
+        finally:
+            self.problems += [f"frame {frame}: camera {c!r} left out ({why})" for c, why in report.skipped.items()]
+            self.seconds["hull"] += time.perf_counter() - t0
 
     # -- the sequence ------------------------------------------------------------------
 
-    def run(self, out, resume: bool = True, show_progress: bool = True, frames: int | None = None) -> TrackingResult:
-        """Track the sequence into folder `out` (see the module documentation)."""
+    def run(self, out, resume: bool = True, show_progress: bool = True, frames: int | None = None,
+            interpolate: bool = False, smooth_hz: float | None = None) -> TrackingResult:
+        """Track the sequence into folder `out` (see the module documentation); the last
+        two arguments go to :func:`hullcap.results.write_outputs`."""
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         n = len(self.sequence) if frames is None else min(frames, len(self.sequence))
         result, start = self._resume(out, n) if resume else (None, 0)
         if result is None:
-            model = self.model
             t0 = time.perf_counter()
-            first = self.hull(0)
-            if model is None:
-                subject = build_subject(first)
-                model, first_fit = subject.model, subject.fit
-            else:
-                first_fit = place_model(model, first)
+            model, start, anchor = self._subject(n, show_progress)
             self.seconds["subject"] += time.perf_counter() - t0
             model.save(out / "model")
             result = TrackingResult.empty(model, n, self.sequence.fps)
-            result.record(0, first_fit)
-            result.failed[0] = not self.passes(first_fit)
-            start = 1
-        model = result.model
+            state = _State(model, self.options, anchor)
+        else:
+            state = _State(result.model, self.options, None)
+            state.remember(result, start)
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
         for frame in bar:
-            try:
-                surface = self.hull(frame)
-            except ValueError as e:  # no usable view in this frame
-                self.problems.append(f"frame {frame}: {e}")
-                result.failed[frame] = True
-                continue
-            fitted, ok = self.fit_frame(model, surface, self._starts(result, frame))
-            result.record(frame, fitted)
-            result.failed[frame] = not ok
+            self._track(state, result, frame)
             if frame % 10 == 0:
                 self._checkpoint(out, result, frame + 1)
         result.seconds = dict(self.seconds)
-        write_outputs(out, result)
+        write_outputs(out, result, interpolate, smooth_hz)
         (out / CHECKPOINT).unlink(missing_ok=True)
         return result
 
-    def _starts(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
-        """Constant-velocity prediction from the last two good frames, then the last good
-        pose itself."""
-        good = [f for f in range(frame - 1, -1, -1) if not result.failed[f]][:2]
-        if not good:
-            good = [0]
-        last = PoseParameters(result.theta[good[0]], result.root_rotation[good[0]], result.root_translation[good[0]])
-        if len(good) < 2 or good[0] - good[1] != 1 or good[0] != frame - 1:
-            return [last]
-        a, b = good[1], good[0]
-        lim = result.model.link_model.dof_limits
-        theta = np.clip(2 * result.theta[b] - result.theta[a], lim[:, 0], lim[:, 1])
-        turn = result.root_rotation[b] @ result.root_rotation[a].T
-        predicted = PoseParameters(theta, turn @ result.root_rotation[b],
-                                   2 * result.root_translation[b] - result.root_translation[a])
-        return [predicted, last]
+    def _subject(self, n: int, show_progress: bool):
+        """``(model, first frame, its pose)``: the subject's model, built (and refined) at the
+        first frame whose hull it explains, or the given one placed there."""
+        options = self.options
+        for frame in range(n):
+            try:
+                hull = self.hull(frame)
+            except ValueError as e:
+                self.problems.append(f"frame {frame}: {e}")
+                continue
+            if self.model is not None:
+                placed = place_model(self.model, hull, options=options.subject)
+                if quality(placed) >= options.min_subject_quality:
+                    self.learn_colours(frame, self.model, placed.pose, fresh=True)
+                    return self.model, frame, placed
+                continue
+            try:
+                subject = build_subject(hull, options=options.subject)
+                # Silhouettes guided by the model just built see what the first ones missed
+                # (clothes the colour of the room): build it again from them, twice.
+                for _ in range(2 if self._guides() else 0):
+                    self.learn_colours(frame, subject.model, subject.pose, fresh=True)
+                    guided = self.hull(frame, (subject.model, subject.pose))
+                    subject = build_subject(guided, poses=[subject.pose], options=options.subject)
+            except ValueError as e:
+                self.problems.append(f"frame {frame}: {e}")
+                continue
+            if quality(subject.fit) < options.min_subject_quality:
+                self.problems.append(f"frame {frame}: the body model explains too little of the hull "
+                                     f"(quality {quality(subject.fit):.2f}) to start from")
+                continue
+            if not options.refine_joints:
+                return subject.model, frame, subject.fit
+            return self._refine(subject, frame, n, show_progress)
+        raise ValueError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start from")
+
+    def _refine(self, subject, first: int, n: int, show_progress: bool):
+        """Track the first seconds with `subject`, fit its proportions and joint centres
+        over frames of them, and return the refined model with its pose at `first`."""
+        last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
+        window = TrackingResult.empty(subject.model, n, self.sequence.fps)
+        state = _State(subject.model, self.options, subject.fit)
+        for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
+            self._track(state, window, frame)
+        good = [f for f in range(first, last) if not window.failed[f]]
+        if len(good) < 2:
+            return subject.model, first, subject.fit
+        picks = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, self.options.calibration_frames)})
+        poses = [PoseParameters(window.theta[f], window.root_rotation[f], window.root_translation[f]) for f in picks]
+        for k, (f, pose) in enumerate(zip(picks, poses)):
+            self.learn_colours(f, subject.model, pose, fresh=k == 0)
+        hulls = [self.hull(f, (subject.model, pose)) for f, pose in zip(picks, poses)]
+        refined = build_subject(hulls, poses=poses, options=self.options.subject)
+        return refined.model, first, refined.fit
+
+    def _track(self, state: _State, result: TrackingResult, frame: int) -> None:
+        """Fit one frame, judge it, search when needed, and record it. Its silhouettes are
+        guided by the predicted pose when the frame before was tracked (after a failure,
+        a wrong prediction would hide the person it missed)."""
+        starts = state.starts(result, frame)
+        tracked = frame > 0 and not result.failed[frame - 1]
+        prior = (state.model, starts[0]) if starts and (tracked or state.anchor_only(result, frame)) else None
+        try:
+            surface = self.hull(frame, prior)
+        except ValueError as e:  # no usable view in this frame
+            self.problems.append(f"frame {frame}: {e}")
+            result.fail(frame)
+            return
+        t0 = time.perf_counter()
+        target = make_target(surface)
+        best, iterations = None, 0
+        for start in starts:
+            fitted = fit(state.model, target, start, self.options.fit)
+            iterations += fitted.iterations
+            if best is None or quality(fitted) > quality(best):
+                best = fitted
+            if state.good(best):
+                break
+        status = GOOD if best is not None and state.good(best) else FAILED
+        if status == FAILED and self.options.reacquire:
+            found, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose)
+            iterations += spent
+            if best is None or quality(found) > quality(best):
+                best = found
+            status = RECOVERED if state.good(best) else FAILED
+        if best is None:  # nothing to start from and no search
+            result.fail(frame)
+            return
+        result.record(frame, best, status, iterations)
+        if status != FAILED:
+            state.reference.append(quality(best))
+        self.seconds["fit"] += time.perf_counter() - t0
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
         buf = io.BytesIO()
@@ -271,44 +344,55 @@ class Tracker:
             return result, int(z["next_frame"])
 
 
-def write_outputs(out, result: TrackingResult) -> None:
-    """Write ``joints.csv``, ``pose.npz`` (FORMATS.md), ``motion.bvh`` and ``model.glb``,
-    each atomically."""
-    out = Path(out)
-    write_joints_csv(out / "joints.csv", result)
-    buf = io.BytesIO()
-    arrays = result.arrays()
-    arrays.pop("joints")
-    np.savez(buf, **arrays)
-    atomic_write(out / "pose.npz", buf.getvalue())
-    if (~result.failed).any():
-        motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
-        write_bvh(out / "motion.bvh", *motion)
-        write_glb(out / "model.glb", *motion)
+class _State:
+    """What tracking carries from frame to frame: the model, the search, the reference
+    quality and the pose tracking started from."""
 
+    def __init__(self, model: BodyModel, options: TrackerOptions, anchor: FitResult | None):
+        self.model = model
+        self.options = options
+        self.search = PoseSearch(model, options.fit, options.search, options.seed)
+        self.reference: deque = deque(maxlen=options.quality_window)
+        self.anchor_pose = anchor.pose if anchor is not None else None
+        if anchor is not None:
+            self.reference.append(quality(anchor))
 
-def write_joints_csv(path, result: TrackingResult) -> None:
-    """``joints.csv``: one row per fitted frame and joint (FORMATS.md)."""
-    lines = ["frame,time,joint,x,y,z"]
-    names = result.model.joint_names
-    for f in np.flatnonzero(~result.failed):
-        t = f / result.fps
-        for name, (x, y, z) in zip(names, result.joints[f]):
-            lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f}")
-    atomic_write(Path(path), ("\n".join(lines) + "\n").encode())
+    def remember(self, result: TrackingResult, upto: int) -> None:
+        """Take the reference quality and the anchor from frames already tracked (resume)."""
+        done = [f for f in range(upto) if not result.failed[f]]
+        for f in done[-self.options.quality_window:]:
+            self.reference.append(float(result.quality[f]))
+        if done:
+            f = done[0]
+            self.anchor_pose = PoseParameters(result.theta[f], result.root_rotation[f], result.root_translation[f])
 
+    def anchor_only(self, result: TrackingResult, frame: int) -> bool:
+        """Whether nothing before `frame` was tracked and the anchor is the prediction."""
+        return self.anchor_pose is not None and result.failed[:frame].all()
 
-def load_result(out) -> TrackingResult:
-    """A finished run's results from its folder (``pose.npz`` and ``model/``)."""
-    out = Path(out)
-    model = BodyModel.load(out / "model")
-    path = out / "pose.npz"
-    try:
-        with np.load(path) as z:
-            a = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as e:
-        raise ValueError(f"{path}: not a readable pose.npz ({e})") from e
-    missing = set(TrackingResult.empty(model, 0, 1.0).arrays()) - {"joints"} - a.keys()
-    if missing:
-        raise ValueError(f"{path}: missing {sorted(missing)}")
-    return TrackingResult.from_arrays(model, a)
+    def good(self, fitted: FitResult) -> bool:
+        q = quality(fitted)
+        reference = float(np.median(self.reference)) if self.reference else q
+        return q >= self.options.min_quality and q >= reference - self.options.quality_margin
+
+    def recent(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
+        """Good poses before `frame`, newest first, spaced back over about a second."""
+        good = [f for f in range(frame - 1, max(-1, frame - 1 - int(result.fps)), -1) if not result.failed[f]]
+        picks = good[:: max(1, len(good) // max(1, self.options.search.recent))][: self.options.search.recent]
+        return [PoseParameters(result.theta[f], result.root_rotation[f], result.root_translation[f]) for f in picks]
+
+    def starts(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
+        """Constant-velocity prediction from the last two frames when both are good, then
+        the last good pose; the anchor when nothing was tracked yet."""
+        good = [f for f in range(frame - 1, -1, -1) if not result.failed[f]][:2]
+        if not good:
+            return [self.anchor_pose] if self.anchor_pose is not None else []
+        last = PoseParameters(result.theta[good[0]], result.root_rotation[good[0]], result.root_translation[good[0]])
+        if len(good) < 2 or good[0] - good[1] != 1 or good[0] != frame - 1:
+            return [last]
+        a, b = good[1], good[0]
+        theta = self.model.clamp(2 * result.theta[b] - result.theta[a])
+        turn = result.root_rotation[b] @ result.root_rotation[a].T
+        predicted = PoseParameters(theta, turn @ result.root_rotation[b],
+                                   2 * result.root_translation[b] - result.root_translation[a])
+        return [predicted, last]

@@ -1,0 +1,149 @@
+"""Finding the person again from the hull itself (docs/design.md, "Tracking").
+
+When a frame's fit explains its hull far worse than the recent frames did, perturbing the
+last pose does not help: the model has drifted and the person is elsewhere. The search
+starts from the hull instead:
+
+1. candidate poses: recent good poses, the calibration pose and a few canonical ones
+   (arms down, arms up, a crouch, either leg raised), each turned to several headings
+   about the vertical and moved so that its centroid lies on the hull's;
+2. all candidates scored at once by the engine (how much of the hull each explains both
+   ways, without fitting), the best few fitted in full;
+3. each limb chain of the best fit re-sampled on its own (joint angles drawn within their
+   limits, the rest of the body held), scored, and the best sample fitted when it explains
+   more of the hull.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hullcap import _engine
+from hullcap._engine import FitOptions
+from hullcap.body import BodyModel
+from hullcap.fitting import FitResult, PoseParameters, fit, yaw_rotation
+
+__all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS"]
+
+CANONICAL_POSES = {
+    "arms down": {"shoulder_abduction": -75, "elbow_flexion": 15},
+    "arms up": {"shoulder_abduction": 80, "clavicle_elevation": 20},
+    "crouch": {"hip_flexion": 90, "knee_flexion": 110, "ankle_flexion": 25, "shoulder_flexion": 60,
+               "shoulder_abduction": -20, "waist_flexion": 20},
+    "left leg raised": {"l_hip_flexion": 70, "l_knee_flexion": 60, "shoulder_abduction": -60},
+    "right leg raised": {"r_hip_flexion": 70, "r_knee_flexion": 60, "shoulder_abduction": -60},
+}
+"""Poses of the library besides the recent and calibration ones: joint angles in degrees by
+DOF name, where a name without ``l_``/``r_`` means both sides."""
+
+CHAINS = {
+    "left arm": ("l_clavicle", "l_upper_arm", "l_forearm"),
+    "right arm": ("r_clavicle", "r_upper_arm", "r_forearm"),
+    "left leg": ("l_thigh", "l_shin", "l_foot"),
+    "right leg": ("r_thigh", "r_shin", "r_foot"),
+    "trunk": ("torso", "head"),
+}
+"""Links re-sampled together by the search's last step."""
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """Numbers of the search.
+
+    Attributes:
+        headings: headings about the vertical each library pose is tried at, evenly
+            spaced from the last good heading.
+        keep: candidates fitted in full after scoring.
+        chain_samples: joint-angle draws per limb chain.
+        recent: recent good poses taken into the library (the newest, and others spaced
+            back over about a second).
+    """
+
+    headings: int = 8
+    keep: int = 3
+    chain_samples: int = 48
+    recent: int = 3
+
+    def __post_init__(self):
+        if min(self.headings, self.keep, self.chain_samples, self.recent) < 1:
+            raise ValueError("SearchOptions: headings, keep, chain_samples and recent must be at least 1")
+
+
+def quality(stats) -> float:
+    """½(inlier fraction + coverage) of a fit or of engine statistics."""
+    get = (lambda k: stats[k]) if isinstance(stats, dict) else (lambda k: getattr(stats, k))
+    return 0.5 * (get("inlier_fraction") + get("coverage"))
+
+
+class PoseSearch:
+    """The re-acquisition search for one model (see the module documentation)."""
+
+    def __init__(self, model: BodyModel, fit_options: FitOptions, options: SearchOptions | None = None,
+                 seed: int = 0):
+        self.model = model
+        self.fit_options = fit_options
+        self.options = options or SearchOptions()
+        self._rng = np.random.default_rng(seed)
+        self._canonical = [_angles(model, spec) for spec in CANONICAL_POSES.values()]
+        links = model.link_model
+        self._chains = [np.flatnonzero(np.isin(links.dof_links, [links.names.index(n) for n in chain
+                                                                  if n in links.names]))
+                        for chain in CHAINS.values()]
+        self._chains = [c for c in self._chains if len(c)]
+
+    def search(self, target, surface, recent: list[PoseParameters], calibration: PoseParameters | None) -> tuple[FitResult, int]:
+        """The best fit found from the hull; returns it and the ICP iterations spent."""
+        centre = surface.vertices.mean(0)
+        library = [p.theta for p in recent[: self.options.recent]]
+        if calibration is not None:
+            library.append(calibration.theta)
+        library += self._canonical
+        last = recent[0].root_rotation if recent else np.eye(3)  # headings spaced from it
+        candidates = []
+        for theta in library:
+            offset = self.model.pose(theta).vertices.mean(0)  # centroid, body frame
+            for k in range(self.options.headings):
+                R = yaw_rotation(2 * np.pi * k / self.options.headings) @ last
+                candidates.append(PoseParameters(theta, R, centre - R @ offset))
+        ranked = self._rank(target, candidates)
+        iterations = 0
+        best = None
+        for pose in ranked[: self.options.keep]:
+            result = fit(self.model, target, pose, self.fit_options)
+            iterations += result.iterations
+            if best is None or quality(result) > quality(best):
+                best = result
+        for dofs in self._chains:
+            samples = []
+            lim = self.model.link_model.dof_limits[dofs]
+            for _ in range(self.options.chain_samples):
+                theta = best.pose.theta.copy()
+                theta[dofs] = self._rng.uniform(lim[:, 0], lim[:, 1])
+                samples.append(PoseParameters(theta, best.pose.root_rotation, best.pose.root_translation))
+            top = self._rank(target, samples + [best.pose])
+            if top[0] is best.pose:
+                continue
+            result = fit(self.model, target, top[0], self.fit_options)
+            iterations += result.iterations
+            if quality(result) > quality(best):
+                best = result
+        return best, iterations
+
+    def _rank(self, target, poses: list[PoseParameters]) -> list[PoseParameters]:
+        stats = _engine.evaluate(self.model._rig, target, [np.asarray(p.theta, float).tolist() for p in poses],
+                                 [np.asarray(p.root_rotation, float) for p in poses],
+                                 [np.asarray(p.root_translation, float) for p in poses], self.fit_options)
+        order = np.argsort([-quality(s) for s in stats], kind="stable")
+        return [poses[i] for i in order]
+
+
+def _angles(model: BodyModel, spec: dict) -> np.ndarray:
+    names = model.dof_names
+    theta = np.zeros(model.n_dofs)
+    for name, degrees in spec.items():
+        for full in ([name] if name[:2] in ("l_", "r_") else [f"l_{name}", f"r_{name}"]):
+            if full in names:
+                theta[names.index(full)] = np.radians(degrees)
+    return model.clamp(theta)

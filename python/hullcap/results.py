@@ -1,0 +1,233 @@
+"""A run's results: per-frame poses, joints and fit quality, and the files they are
+written to and read from (docs/formats.md): ``joints.csv``, ``pose.npz``, ``motion.bvh``,
+``model.glb``.
+
+Every frame has a status: ``good`` (the fit explains the hull as well as the recent
+frames did), ``recovered`` (it did after a search from the hull itself), or ``failed``.
+Failed frames hold NaN and are left out of ``joints.csv`` unless the outputs are asked to
+interpolate them, in which case they are filled from their neighbours and marked
+``interpolated``. Joint trajectories can be low-pass filtered without lag for analysis;
+the raw results are always kept.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from hullcap._files import atomic_write
+from hullcap.body import BodyModel
+from hullcap.export.bvh import write_bvh
+from hullcap.export.gltf import write_glb
+from hullcap.fitting import FitResult
+
+__all__ = ["GOOD", "RECOVERED", "FAILED", "INTERPOLATED", "STATUS_NAMES", "TrackingResult", "write_outputs",
+           "write_joints_csv", "load_result", "smooth_joints"]
+
+GOOD, RECOVERED, FAILED, INTERPOLATED = 0, 1, 2, 3
+STATUS_NAMES = ("good", "recovered", "failed", "interpolated")
+"""What ``status`` values mean (``pose.npz`` and the ``status`` column of ``joints.csv``)."""
+
+STATS = ("energy", "inlier_fraction", "mean_residual", "coverage", "mean_reverse_residual")
+"""Per-frame fit statistics kept from each frame's :class:`~hullcap.fitting.FitResult`."""
+
+
+@dataclass
+class TrackingResult:
+    """Per-frame results of a run (F frames); failed frames hold NaN.
+
+    Attributes:
+        model: the subject's model.
+        fps: frame rate.
+        theta (F, D), root_rotation (F, 3, 3), root_translation (F, 3): the poses.
+        joints: (F, J, 3) joint positions, world metres.
+        status: (F,) uint8, see :data:`STATUS_NAMES`.
+        energy, inlier_fraction, mean_residual, coverage, mean_reverse_residual: (F,) the
+            fit statistics (:class:`~hullcap.fitting.FitResult`).
+        iterations: (F,) ICP iterations spent on the frame, searches included.
+        seconds: seconds spent per stage (silhouettes, hull, fit, subject).
+    """
+
+    model: BodyModel
+    fps: float
+    theta: np.ndarray
+    root_rotation: np.ndarray
+    root_translation: np.ndarray
+    joints: np.ndarray
+    status: np.ndarray
+    energy: np.ndarray
+    inlier_fraction: np.ndarray
+    mean_residual: np.ndarray
+    coverage: np.ndarray
+    mean_reverse_residual: np.ndarray
+    iterations: np.ndarray
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def failed(self) -> np.ndarray:
+        """(F,) bool: frames without a pose."""
+        return self.status == FAILED
+
+    @property
+    def quality(self) -> np.ndarray:
+        """(F,) how much of each frame's hull the fit explains both ways:
+        ½(inlier fraction + coverage), 1 = every point within the inlier distance."""
+        return 0.5 * (self.inlier_fraction + self.coverage)
+
+    @classmethod
+    def empty(cls, model: BodyModel, n: int, fps: float) -> TrackingResult:
+        nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
+        return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
+                   np.full(n, FAILED, np.uint8), *(nan() for _ in STATS), np.zeros(n, np.int64))
+
+    @classmethod
+    def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
+        """A result from the arrays of :meth:`arrays` (a checkpoint, or ``pose.npz``, whose
+        joints are recomputed from the model)."""
+        n = len(a["theta"])
+        status = np.asarray(a["status"], np.uint8) if "status" in a else \
+            np.where(np.asarray(a["failed"], bool), FAILED, GOOD).astype(np.uint8)
+        stats = [np.asarray(a[k], float) if k in a else np.full(n, np.nan) for k in STATS]
+        result = cls(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
+                     np.full((n, len(model.joint_names), 3), np.nan), status, *stats,
+                     np.asarray(a["iterations"]))
+        if "joints" in a:
+            result.joints = np.asarray(a["joints"], float)
+        else:
+            for f in np.flatnonzero(~result.failed):
+                result.joints[f] = model.pose(result.theta[f], result.root_rotation[f],
+                                              result.root_translation[f], clamp=False).joints
+        return result
+
+    def record(self, frame: int, result: FitResult, status: int, iterations: int | None = None) -> None:
+        """Store a frame's fit with its status; a failed frame keeps the fit's statistics
+        (for the report) but no pose."""
+        p = result.pose
+        self.theta[frame], self.root_rotation[frame], self.root_translation[frame] = \
+            p.theta, p.root_rotation, p.root_translation
+        self.joints[frame] = self.model.pose(p.theta, p.root_rotation, p.root_translation).joints
+        self.status[frame] = status
+        for k in STATS:
+            getattr(self, k)[frame] = getattr(result, k)
+        self.iterations[frame] = result.iterations if iterations is None else iterations
+        if status == FAILED:
+            self.fail(frame)
+
+    def fail(self, frame: int) -> None:
+        """Mark a frame failed and forget its pose."""
+        self.status[frame] = FAILED
+        for a in (self.theta, self.root_rotation, self.root_translation, self.joints):
+            a[frame] = np.nan
+
+    def arrays(self) -> dict:
+        out = {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
+               "theta": self.theta, "dof_names": np.array(self.model.dof_names),
+               "joint_names": np.array(self.model.joint_names), "failed": self.failed,
+               "status": self.status, "iterations": self.iterations, "joints": self.joints, "fps": self.fps}
+        return out | {k: getattr(self, k) for k in STATS}
+
+    def interpolated(self) -> TrackingResult:
+        """A copy whose failed frames between two fitted ones are filled in: joint
+        positions, root translation and angles linearly, the root rotation by spherical
+        interpolation; they get status ``interpolated``. Failed frames at the ends stay."""
+        from scipy.spatial.transform import Rotation, Slerp
+
+        out = replace(self, theta=self.theta.copy(), root_rotation=self.root_rotation.copy(),
+                      root_translation=self.root_translation.copy(), joints=self.joints.copy(),
+                      status=self.status.copy())
+        known = np.flatnonzero(~self.failed)
+        gaps = np.flatnonzero(self.failed)
+        gaps = gaps[(gaps > known.min()) & (gaps < known.max())] if len(known) >= 2 else gaps[:0]
+        if not len(gaps):
+            return out
+        for name in ("theta", "root_translation", "joints"):
+            a = getattr(out, name)
+            flat = a.reshape(len(a), -1)
+            for c in range(flat.shape[1]):
+                flat[gaps, c] = np.interp(gaps, known, flat[known, c])
+        out.root_rotation[gaps] = Slerp(known, Rotation.from_matrix(self.root_rotation[known]))(gaps).as_matrix()
+        out.status[gaps] = INTERPOLATED
+        return out
+
+
+def smooth_joints(joints: np.ndarray, fps: float, cutoff_hz: float, order: int = 4) -> np.ndarray:
+    """Zero-lag low-pass filter of joint trajectories, as biomechanics analyses expect: a
+    Butterworth filter of `order` run forwards and backwards (so the effective order is
+    twice that and nothing is delayed), on each run of consecutive frames without NaN.
+
+    Args:
+        joints: (F, J, 3) trajectories; failed frames NaN (runs are filtered separately).
+        fps: frame rate; cutoff_hz: the cut-off frequency, below fps / 2.
+
+    Returns:
+        (F, J, 3) filtered trajectories; NaN where the input was, and runs too short to
+        filter (under 3·(order + 1) frames) left as they were.
+    """
+    from scipy.signal import butter, filtfilt
+
+    if not 0 < cutoff_hz < fps / 2:
+        raise ValueError(f"the cut-off must lie between 0 and half the frame rate ({fps / 2:g} Hz), got {cutoff_hz}")
+    joints = np.asarray(joints, float)
+    b, a = butter(order, cutoff_hz / (fps / 2))
+    out = joints.copy()
+    ok = np.isfinite(joints).all(axis=(1, 2))
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2]):
+        if stop - start > 3 * (order + 1):
+            out[start:stop] = filtfilt(b, a, joints[start:stop], axis=0)
+    return out
+
+
+def write_outputs(out, result: TrackingResult, interpolate: bool = False, smooth_hz: float | None = None) -> None:
+    """Write ``joints.csv``, ``pose.npz``, ``motion.bvh`` and ``model.glb``, each
+    atomically; with `interpolate`, failed frames between fitted ones are filled in the
+    outputs (``pose.npz`` keeps the raw poses and says which); with `smooth_hz`, also
+    ``joints_smooth.csv`` (see :func:`smooth_joints`)."""
+    out = Path(out)
+    shown = result.interpolated() if interpolate else result
+    write_joints_csv(out / "joints.csv", shown)
+    if smooth_hz:
+        write_joints_csv(out / "joints_smooth.csv", replace(shown, joints=smooth_joints(shown.joints, result.fps,
+                                                                                         smooth_hz)))
+    buf = io.BytesIO()
+    arrays = result.arrays()
+    arrays.pop("joints")
+    if interpolate:
+        arrays["interpolated"] = shown.status == INTERPOLATED
+    np.savez(buf, **arrays)
+    atomic_write(out / "pose.npz", buf.getvalue())
+    if (~shown.failed).any():
+        motion = (shown.model, shown.root_translation, shown.root_rotation, shown.theta, shown.fps)
+        write_bvh(out / "motion.bvh", *motion)
+        write_glb(out / "model.glb", *motion)
+
+
+def write_joints_csv(path, result: TrackingResult) -> None:
+    """``joints.csv``: one row per frame with a pose and joint, with its status."""
+    lines = ["frame,time,joint,x,y,z,status"]
+    names = result.model.joint_names
+    for f in np.flatnonzero(~result.failed):
+        t = f / result.fps
+        status = STATUS_NAMES[result.status[f]]
+        for name, (x, y, z) in zip(names, result.joints[f]):
+            lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f},{status}")
+    atomic_write(Path(path), ("\n".join(lines) + "\n").encode())
+
+
+def load_result(out) -> TrackingResult:
+    """A finished run's results from its folder (``pose.npz`` and ``model/``)."""
+    out = Path(out)
+    model = BodyModel.load(out / "model")
+    path = out / "pose.npz"
+    try:
+        with np.load(path) as z:
+            a = {k: z[k] for k in z.files}
+    except (OSError, ValueError) as e:
+        raise ValueError(f"{path}: not a readable pose.npz ({e})") from e
+    missing = {"root_translation", "root_rotation", "theta", "failed", "iterations", "fps"} - a.keys()
+    if missing:
+        raise ValueError(f"{path}: missing {sorted(missing)}")
+    return TrackingResult.from_arrays(model, a)

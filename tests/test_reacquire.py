@@ -1,0 +1,102 @@
+"""Never lose the person: re-acquisition from the hull after a jump or unusable frames,
+the per-frame status, interpolation of failed frames and smoothing."""
+
+import cv2
+import numpy as np
+import pytest
+
+from hullcap import BodyModel, Sequence, Tracker, TrackerOptions, smooth_joints
+from hullcap.cameras import ring
+from hullcap.motions import motion_poses
+from hullcap.results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
+from hullcap.synth import SUBJECTS, body_colours, render_sequence
+
+FRAMES = 30
+JUMP = 14
+
+
+def render(out, shift_after=None, shift=(0.0, 0.0, 0.0)):
+    """The 'demo' motion of the 'short' subject, 6 cameras at 400×300, exact silhouettes;
+    from frame `shift_after` on, the person stands `shift` metres away."""
+    model = BodyModel.template().scaled(*SUBJECTS["short"])
+    theta, rot, trans = motion_poses("demo", model.dof_names, 30.0, model.rest_root_height)
+    theta, rot, trans = theta[:FRAMES], rot[:FRAMES], trans[:FRAMES].copy()
+    if shift_after is not None:
+        trans[shift_after:] += shift
+    joints = []
+
+    def meshes():
+        for th, r, t in zip(theta, rot, trans):
+            pose = model.pose(th, r, t)
+            joints.append(pose.joints)
+            yield pose.vertices
+
+    cams = ring(6, radius=4.2, width=400, height_px=300, fov_deg=62)
+    seq = render_sequence(out, cams, meshes(), model.faces, FRAMES, body_colours(model), silhouettes=True,
+                          show_progress=False)
+    return seq, np.array(joints), model
+
+
+def errors(result, truth):
+    return np.linalg.norm(result.joints - truth, axis=2).mean(1)
+
+
+OPTIONS = TrackerOptions(refine_joints=False)
+
+
+def test_a_person_who_jumps_a_metre_is_found_again_at_once(tmp_path):
+    seq_path, truth, _ = render(tmp_path / "seq", JUMP, (0.7, 0.7, 0.0))
+    result = Tracker(Sequence(seq_path), options=OPTIONS).run(tmp_path / "out", show_progress=False)
+    e = errors(result, truth)
+    assert not result.failed[JUMP + 3:].any(), result.status
+    assert (result.status[JUMP:JUMP + 3] == RECOVERED).any(), result.status
+    assert np.nanmax(e[JUMP + 3:]) < 0.05, e
+    without = Tracker(Sequence(seq_path), options=TrackerOptions(refine_joints=False, reacquire=False))
+    lost = without.run(tmp_path / "plain", show_progress=False)
+    assert lost.failed[JUMP:].all()  # the search is what finds the person again
+
+
+def test_unusable_first_frames_are_skipped_and_the_person_picked_up(tmp_path):
+    seq_path, truth, _ = render(tmp_path / "seq")
+    rng = np.random.default_rng(3)
+    for f in range(20):  # blobs of noise where the person should be
+        for cam in Sequence(seq_path).cameras:
+            mask = np.zeros((cam.height, cam.width), np.uint8)
+            for _ in range(6):
+                x, y = rng.integers(0, cam.width - 40), rng.integers(0, cam.height - 40)
+                mask[y:y + rng.integers(10, 40), x:x + rng.integers(10, 40)] = 255
+            cv2.imwrite(str(seq_path / "silhouettes" / cam.name / f"{f:06d}.png"), mask)
+    tracker = Tracker(Sequence(seq_path), options=OPTIONS)
+    result = tracker.run(tmp_path / "out", show_progress=False)
+    assert result.failed[:20].all()
+    assert not result.failed[23:].any(), result.status
+    assert np.nanmax(errors(result, truth)[23:]) < 0.05
+    assert any("frame 0" in p for p in tracker.problems)
+
+
+def test_failed_frames_are_interpolated_only_when_asked_and_smoothing_keeps_raw(tmp_path):
+    model = BodyModel.template()
+    n = 40
+    result = TrackingResult.empty(model, n, 30.0)
+    t = np.arange(n) / 30.0
+    for f in range(n):
+        result.theta[f] = 0.0
+        result.root_rotation[f] = np.eye(3)
+        result.root_translation[f] = (t[f], 0.0, 1.0)
+        result.joints[f] = model.pose(root_translation=result.root_translation[f]).joints
+        result.status[f] = GOOD
+    result.fail(10)
+    result.fail(11)
+    filled = result.interpolated()
+    assert result.failed[10] and np.isnan(result.joints[10]).all()  # the raw result stays
+    assert (filled.status[10:12] == INTERPOLATED).all()
+    want = model.pose(root_translation=(10 / 30.0, 0.0, 1.0)).joints
+    assert np.allclose(filled.joints[10], want, atol=1e-9)  # linear motion: exact
+    smooth = smooth_joints(result.joints, 30.0, 6.0)
+    assert np.isnan(smooth[10:12]).all()
+    assert np.allclose(smooth[20:30], result.joints[20:30], atol=1e-3)  # a straight line passes
+    noisy = result.joints + np.random.default_rng(0).normal(0, 0.005, result.joints.shape)
+    assert np.nanstd(smooth_joints(noisy, 30.0, 3.0)[12:] - result.joints[12:]) < 0.6 * 0.005
+    with pytest.raises(ValueError, match="half the frame rate"):
+        smooth_joints(result.joints, 30.0, 20.0)
+    assert FAILED == result.status[10]
