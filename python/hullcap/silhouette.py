@@ -47,6 +47,11 @@ class Thresholds:
     brightness: float = 6.0
 
 
+FOREGROUND_EVIDENCE = 6.0
+"""Evidence given to a pixel whose brightness alone makes it foreground (see
+:meth:`StatisticalBackground.evidence`)."""
+
+
 class StatisticalBackground:
     """The Horprasert background model of one camera.
 
@@ -91,24 +96,41 @@ class StatisticalBackground:
         cd2 = np.einsum("ijc,ijc->ij", i_s, i_s) - dot * alpha
         return alpha, np.sqrt(np.maximum(cd2, 0))
 
+    def _normalised(self, image: np.ndarray):
+        """(α, CD in units of its noise spread, α − 1 in units of its noise spread)."""
+        image = _image(image, self.shape)
+        alpha, cd = self._distortions(image)
+        return alpha, cd * self._inv_b, (alpha - 1.0) * self._inv_a
+
     def classify(self, image: np.ndarray) -> np.ndarray:
         """Per-pixel class: 0 background, 1 shadow, 2 highlight, 3 foreground (uint8),
         before any clean-up."""
-        image = _image(image, self.shape)
         t = self.thresholds
-        alpha, cd = self._distortions(image)
-        cd_n = cd * self._inv_b
-        alpha_n = (alpha - 1.0) * self._inv_a
+        alpha, cd_n, alpha_n = self._normalised(image)
         out = np.zeros(self.shape, np.uint8)
         out[alpha_n < -t.brightness] = 1
         out[alpha_n > t.brightness] = 2
         out[(cd_n > t.chromaticity) | (alpha < t.darkest_shadow) | (alpha > t.brightest_highlight)] = 3
         return out
 
+    def evidence(self, image: np.ndarray) -> np.ndarray:
+        """(H, W) float32 evidence that each pixel is foreground, in units of the noise's
+        spread: how far the normalised chromaticity distortion lies beyond its threshold
+        (negative: within it), and +`FOREGROUND_EVIDENCE` where the brightness alone rules
+        out a shadow or highlight. :meth:`classify`'s foreground is where it is > 0."""
+        t = self.thresholds
+        alpha, cd_n, _ = self._normalised(image)
+        ev = cd_n - t.chromaticity
+        ev[(alpha < t.darkest_shadow) | (alpha > t.brightest_highlight)] = FOREGROUND_EVIDENCE
+        return ev
+
     def mask(self, image: np.ndarray) -> np.ndarray:
-        """(H, W) uint8 silhouette, 255 = subject, cleaned (see :func:`clean_mask`)."""
-        raw = (self.classify(image) == 3).astype(np.uint8) * 255
-        return clean_mask(raw, self.min_blob, self.max_hole)
+        """(H, W) uint8 silhouette, 255 = subject, cleaned (see :func:`clean_mask`) and
+        with its boundary pixels kept only where at least half covered
+        (:func:`half_covered`)."""
+        evidence = self.evidence(image)
+        raw = np.where(evidence > 0, 255, 0).astype(np.uint8)
+        return half_covered(clean_mask(raw, self.min_blob, self.max_hole), evidence + self.thresholds.chromaticity)
 
 
 class Mog2Background:
@@ -160,6 +182,23 @@ def clean_mask(mask: np.ndarray, min_blob: int = 200, max_hole: int | None = 200
     if max_hole is not None:
         fill &= stats[:, cv2.CC_STAT_AREA] <= max_hole
     return np.where(fg | fill[labels], 255, 0).astype(np.uint8)
+
+
+def half_covered(mask: np.ndarray, distortion: np.ndarray) -> np.ndarray:
+    """`mask` (0/255) without the boundary pixels that the subject covers less than half.
+
+    Lens blur mixes the subject's colour with the background's in the pixels along its
+    outline, and a pixel covered by a tenth already distorts beyond the test's threshold:
+    silhouettes come out a fraction of a pixel too large all round, which a hull of many
+    views adds up. A mixed pixel's distortion is about its share of the subject times the
+    distortion of the subject beside it, so a boundary pixel is kept when its distortion
+    (`distortion`, ≥ 0) is at least half the largest among its eight neighbours."""
+    fg = (mask > 0).astype(np.uint8)
+    ring = (fg > 0) & (cv2.erode(fg, np.ones((3, 3), np.uint8)) == 0)
+    neighbours = cv2.dilate(distortion.astype(np.float32), np.ones((3, 3), np.uint8))
+    out = mask.copy()
+    out[ring & (distortion < 0.5 * neighbours)] = 0
+    return out
 
 
 def _stack(backgrounds) -> np.ndarray:

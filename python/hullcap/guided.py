@@ -1,0 +1,172 @@
+"""Silhouettes guided by the tracked model (docs/design.md, "Silhouettes").
+
+Background subtraction alone cannot see clothes the colour of the room behind them: a
+shirt like the floor is "background" to it, the hull loses the torso, and a hole in one
+view carves a tunnel through all of it. While tracking, the model predicted for the
+frame, drawn into each view, says where the person almost certainly is. Each pixel near
+the person gets the log-odds that it is the subject from three sources, added:
+
+- the statistical test (:meth:`StatisticalBackground.evidence`): how many noise spreads
+  its colour lies from the background's, beyond the test's threshold; evidence for the
+  background counts `background_weight` times as much, since a pixel the colour of the
+  background behind it may be the subject in clothes of that colour (the case at hand);
+- colour: log P(colour | subject) − log P(colour | background near the subject), from
+  colour histograms of this camera learnt where the fitted model says body and not body;
+- the prior: ± `prior` deep inside or far outside the predicted silhouette, rising
+  linearly across a band around its outline whose width is a fraction of the person's
+  height in the image (the prediction is off by about that much).
+
+The sum, smoothed over a pixel or two (neighbours agree), decides; the mask is then
+cleaned as a silhouette should be (:func:`clean_mask`, sizes scaled with the person's
+image size), and its outline pixels kept where the subject covers at least half of them
+(:func:`half_covered`). Far from the predicted person (beyond `reach` of its height) the
+statistical test decides alone, so a limb the prediction missed is still seen when its
+colour differs from the background.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from hullcap.silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered
+
+__all__ = ["GuidedOptions", "ColourModel", "GuidedSegmenter"]
+
+
+@dataclass(frozen=True)
+class GuidedOptions:
+    """Numbers of the model-guided silhouettes (log-odds are natural logarithms).
+
+    Attributes:
+        prior: log-odds of the prior deep inside (+) or far outside (−) the predicted
+            silhouette: 6 ≈ 400 to 1, enough to hold a pixel the background test calls
+            background (at most 3 noise spreads of evidence, see ``evidence``), not enough
+            to hold one whose colour is plainly not the background's.
+        band: half-width of the band over which the prior goes from 0 at the predicted
+            outline to full, as a fraction of the person's image height (0.04: 10 px at
+            250 px tall, about a frame's prediction error of a limb).
+        background_weight: weight of the statistical test's evidence for the background
+            (negative evidence, at most 3 spreads) against its evidence for the subject.
+        colour_weight: weight of the colour log-ratio (clipped to ±4).
+        bins: colour histogram bins per channel (16: 16 grey levels per bin).
+        learn_margin: a pixel teaches the subject's colours when it is this far inside the
+            fitted model's outline, the background's when this far outside and within
+            four such margins of it (fractions of the person's image height).
+        smooth: standard deviation (pixels) of the smoothing of the log-odds.
+        reach: beyond this many image heights of the person from its predicted box, only
+            the statistical test decides.
+        min_blob, max_hole: fractions of the person's image area: smaller foreground
+            specks are dropped, smaller enclosed holes filled.
+    """
+
+    prior: float = 6.0
+    band: float = 0.04
+    background_weight: float = 0.3
+    colour_weight: float = 1.0
+    bins: int = 16
+    learn_margin: float = 0.02
+    smooth: float = 0.8
+    reach: float = 0.3
+    min_blob: float = 0.01
+    max_hole: float = 0.005
+
+
+class ColourModel:
+    """Colour histograms of the subject and of the background around it, one camera."""
+
+    def __init__(self, bins: int = 16):
+        self.bins = bins
+        self.subject = np.zeros(bins**3)
+        self.background = np.zeros(bins**3)
+
+    def clear(self) -> None:
+        """Forget what was learnt."""
+        self.subject[:] = 0
+        self.background[:] = 0
+
+    @property
+    def ready(self) -> bool:
+        return self.subject.sum() > 0 and self.background.sum() > 0
+
+    def _index(self, image: np.ndarray) -> np.ndarray:
+        q = (image.astype(np.int32) * self.bins) >> 8
+        return (q[..., 0] * self.bins + q[..., 1]) * self.bins + q[..., 2]
+
+    def learn(self, image: np.ndarray, subject: np.ndarray, background: np.ndarray) -> None:
+        """Count the colours of `image` under the boolean masks `subject` and `background`."""
+        idx = self._index(image)
+        self.subject += np.bincount(idx[subject], minlength=self.bins**3)
+        self.background += np.bincount(idx[background], minlength=self.bins**3)
+
+    def log_ratio(self, image: np.ndarray) -> np.ndarray:
+        """log P(colour | subject) − log P(colour | background) per pixel (add-one
+        smoothed; 0 everywhere before anything was learnt)."""
+        if not self.ready:
+            return np.zeros(image.shape[:2], np.float32)
+        s = np.log((self.subject + 1) / (self.subject.sum() + self.subject.size))
+        b = np.log((self.background + 1) / (self.background.sum() + self.background.size))
+        return (s - b).astype(np.float32)[self._index(image)]
+
+
+class GuidedSegmenter:
+    """Model-guided silhouettes of one camera (see the module documentation)."""
+
+    def __init__(self, background: StatisticalBackground, options: GuidedOptions | None = None):
+        self.background = background
+        self.options = options or GuidedOptions()
+        self.colours = ColourModel(self.options.bins)
+
+    def learn(self, image: np.ndarray, model_silhouette: np.ndarray) -> None:
+        """Learn colours from a frame in which the model is fitted: `model_silhouette` is
+        its (H, W) bool silhouette in this view."""
+        box = _box(model_silhouette)
+        if box is None:
+            return
+        margin = max(1, int(round(self.options.learn_margin * box[3])))
+        d = _signed_distance(model_silhouette)
+        self.colours.learn(image, d > margin, (d < -margin) & (d > -4 * margin))
+
+    def mask(self, image: np.ndarray, prior: np.ndarray | None) -> np.ndarray:
+        """(H, W) uint8 silhouette, 255 = subject, given the predicted model's (H, W) bool
+        silhouette `prior` (``None``: the statistical test alone)."""
+        o = self.options
+        evidence = self.background.evidence(image)
+        box = None if prior is None else _box(prior)
+        distortion = evidence + self.background.thresholds.chromaticity
+        if box is None:
+            return half_covered(clean_mask(np.where(evidence > 0, 255, 0).astype(np.uint8),
+                                           self.background.min_blob, self.background.max_hole), distortion)
+        x, y, w, h = box
+        pad = int(round(o.reach * h))
+        y0, y1 = max(0, y - pad), min(image.shape[0], y + h + pad)
+        x0, x1 = max(0, x - pad), min(image.shape[1], x + w + pad)
+        roi = (slice(y0, y1), slice(x0, x1))
+        band = max(1.0, o.band * h)
+        d = _signed_distance(prior[roi])
+        ev = np.clip(evidence[roi], -3.0, FOREGROUND_EVIDENCE)
+        logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * np.clip(d / band, -1.0, 1.0)
+        if o.colour_weight:
+            logit += o.colour_weight * np.clip(self.colours.log_ratio(image[roi]), -4.0, 4.0)
+        if o.smooth > 0:
+            logit = cv2.GaussianBlur(logit, (0, 0), o.smooth)
+        raw = np.where(evidence > 0, 255, 0).astype(np.uint8)
+        raw[roi] = np.where(logit > 0, 255, 0)
+        area = float(prior.sum())
+        return half_covered(clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area)), distortion)
+
+
+def _box(silhouette: np.ndarray):
+    """(x, y, width, height) of the silhouette's bounding box, or None when it is empty."""
+    if not silhouette.any():
+        return None
+    return cv2.boundingRect(silhouette.astype(np.uint8))
+
+
+def _signed_distance(silhouette: np.ndarray) -> np.ndarray:
+    """Pixels to the outline, positive inside the silhouette, negative outside."""
+    inside = silhouette.astype(np.uint8)
+    return (cv2.distanceTransform(inside, cv2.DIST_L2, 3)
+            - cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)).astype(np.float32)
