@@ -181,6 +181,17 @@ impl Rig {
         })
     }
 
+    /// The link vertex `i` is bound to most.
+    #[inline]
+    pub fn dominant_link(&self, i: usize) -> usize {
+        let k = self.weights.k;
+        (0..k)
+            .max_by(|&a, &b| {
+                self.weights.weight[i * k + a].total_cmp(&self.weights.weight[i * k + b])
+            })
+            .map_or(0, |c| self.weights.index[i * k + c] as usize)
+    }
+
     /// The same weights on another skeleton and rest mesh (the same vertex count; used
     /// for a body with other proportions, whose validation the weights already passed).
     pub(crate) fn reshaped(

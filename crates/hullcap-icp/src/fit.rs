@@ -38,6 +38,24 @@ pub struct FitStats {
     pub mean_reverse_residual: f64,
     /// The final robust scale σ (m).
     pub sigma: f64,
+    /// Per link of the rig: how well the fit explains that part of the body.
+    pub links: Vec<LinkCounts>,
+}
+
+/// What the statistics count for one link: its model points (by the link each is bound
+/// to most) and how many of them are inliers; the hull samples whose nearest model vertex
+/// is bound to it, and how many of those the model covers. A limb the fit has lost shows
+/// here when the whole body's fractions barely move.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LinkCounts {
+    /// Model points bound to the link.
+    pub points: u32,
+    /// Those within the gates and `inlier_distance` of the hull.
+    pub inliers: u32,
+    /// Hull samples nearest to the link's vertices.
+    pub samples: u32,
+    /// Those with a model partner within the gates and `inlier_distance`.
+    pub covered: u32,
 }
 
 /// Fits the rig to the target from `initial`, moving only the model vertices
@@ -183,7 +201,7 @@ pub(crate) fn evaluate(
         &found.pairs[..found.forward.len()]
     };
     let energy = problem.energy(&pose, &params.root, counted, sigma)?;
-    Ok(found.stats(model_points.len(), energy, sigma, options))
+    Ok(found.stats(rig, model_points, energy, sigma, options))
 }
 
 /// The statistics of many poses of one rig against one target, without fitting (fresh
@@ -511,6 +529,24 @@ mod tests {
             one_sided > 0.1,
             "one-sided: {one_sided} rad off (the test no longer tests anything)"
         );
+    }
+
+    #[test]
+    fn link_counts_show_which_part_is_lost() {
+        let rig = tube();
+        let target = target_at(&rig, &truth());
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).collect();
+        let mut off = truth();
+        off.theta[2] -= 1.2; // the last link swung away
+        let stats = evaluate(&rig, &target, &points, &off, &FitOptions::default(), 1).unwrap();
+        let share = |c: &LinkCounts| {
+            0.5 * (c.inliers as f64 / c.points.max(1) as f64
+                + c.covered as f64 / c.samples.max(1) as f64)
+        };
+        let total: u32 = stats.links.iter().map(|c| c.points).sum();
+        assert_eq!(total as usize, points.len());
+        assert!(share(&stats.links[0]) > 0.95, "{:?}", stats.links);
+        assert!(share(&stats.links[2]) < 0.5, "{:?}", stats.links);
     }
 
     #[test]

@@ -23,7 +23,7 @@ mod solve;
 mod target;
 
 pub use error::IcpError;
-pub use fit::{FitStats, Params, evaluate_poses, fit};
+pub use fit::{FitStats, LinkCounts, Params, evaluate_poses, fit};
 pub use normal_equations::spread;
 pub use options::{FitOptions, Residual, Solver};
 pub use shape_fit::{ShapeFit, ShapePrior, fit_shape};

@@ -11,9 +11,9 @@
 //! (The vertices it chooses among are an even subset, [`FitOptions::reverse_vertices`]:
 //! the kd-tree over them is rebuilt at every iteration.)
 
-use crate::{FitOptions, FitStats, IcpError, Residual, Target};
+use crate::{FitOptions, FitStats, IcpError, LinkCounts, Residual, Target};
 use hullcap_body::{Rig, RootPose, Shape, SkeletonPose};
-use hullcap_kdtree::{BuildOptions, NormalKdTree};
+use hullcap_kdtree::{BuildOptions, Gate, NormalKdTree};
 use nalgebra::Vector3;
 
 /// Posed model points: positions and unit normals, world frame.
@@ -37,17 +37,37 @@ pub(crate) struct Correspondences {
     pub forward: Vec<f64>,
     /// Distance from each hull sample to its model partner; +∞ where it has none.
     pub reverse: Vec<f64>,
+    /// For each hull sample, the link its nearest model vertex (gated or not) is bound to.
+    pub reverse_links: Vec<u32>,
 }
 
 impl Correspondences {
-    /// The fit statistics of these pairs (iterations and rounds left at 0).
+    /// The fit statistics of these pairs (iterations and rounds left at 0), with the
+    /// counts of every link of `rig` (see [`LinkCounts`]).
     pub(crate) fn stats(
         &self,
-        n_model_points: usize,
+        rig: &Rig,
+        model_points: &[u32],
         energy: f64,
         sigma: f64,
         options: &FitOptions,
     ) -> FitStats {
+        let n_model_points = model_points.len();
+        let mut links = vec![LinkCounts::default(); rig.skeleton().n_links()];
+        for &i in model_points {
+            links[rig.dominant_link(i as usize)].points += 1;
+        }
+        for (p, &d) in self.pairs.iter().zip(&self.forward) {
+            if d <= options.inlier_distance {
+                links[rig.dominant_link(p.vertex as usize)].inliers += 1;
+            }
+        }
+        for (&l, &d) in self.reverse_links.iter().zip(&self.reverse) {
+            links[l as usize].samples += 1;
+            if d <= options.inlier_distance {
+                links[l as usize].covered += 1;
+            }
+        }
         let within = |d: &[f64]| d.iter().filter(|&&x| x <= options.inlier_distance).count() as f64;
         let mean = |d: &[f64]| {
             let finite: Vec<f64> = d.iter().copied().filter(|x| x.is_finite()).collect();
@@ -66,6 +86,7 @@ impl Correspondences {
             coverage: within(&self.reverse) / self.reverse.len().max(1) as f64,
             mean_reverse_residual: mean(&self.reverse),
             sigma,
+            links,
         }
     }
 }
@@ -250,17 +271,25 @@ impl Problem<'_> {
                     )
                 })
                 .unzip();
-            let found = model.query(&sp, &sn, &options.gate, Some(self.threads))?;
+            // Ungated, then gated here: each sample's nearest vertex says which part of
+            // the body it belongs to even when the pair is refused.
+            let found = model.query(&sp, &sn, &Gate::default(), Some(self.threads))?;
             let weight = options.reverse_weight * model_points.len() as f64 / samples.len() as f64;
-            for (nb, &k) in found.iter().zip(&samples) {
-                if nb.index < 0 {
+            for ((nb, &k), n) in found.iter().zip(&samples).zip(&sn) {
+                let nearest = nb.index.max(0) as usize;
+                let vertex = every[nearest];
+                out.reverse_links
+                    .push(self.rig.dominant_link(vertex as usize) as u32);
+                let p = Vector3::from(all_points[nearest]);
+                let space = (p - Vector3::from(self.target.points[k as usize])).norm();
+                let dot = Vector3::from(all_normals[nearest]).dot(&Vector3::from(*n));
+                if nb.index < 0 || !options.gate.admits(space, dot) {
                     out.reverse.push(f64::INFINITY);
                     continue;
                 }
-                let p = Vector3::from(all_points[nb.index as usize]);
                 let (_, _, d) = residual(Residual::PointToPlane, self.target, &p, k as usize);
                 out.pairs.push(Pair {
-                    vertex: every[nb.index as usize],
+                    vertex,
                     target: k,
                     weight,
                     kind: Residual::PointToPlane,
@@ -372,7 +401,6 @@ mod tests {
     use super::*;
     use crate::Params;
     use crate::testing::{root, target_at, tube};
-    use hullcap_kdtree::Gate;
 
     /// The gradient JᵀWr is dE/dp of the robust energy for fixed pairs (both directions),
     /// and JᵀWJ is symmetric: checked against central differences of `energy`.

@@ -35,6 +35,13 @@ pub(crate) struct PreparedGate {
 }
 
 impl Gate {
+    /// Whether a pair `distance` metres apart whose unit normals have dot product
+    /// `normal_dot` passes.
+    pub fn admits(&self, distance: f64, normal_dot: f64) -> bool {
+        distance <= self.max_distance
+            && normal_dot >= self.max_angle.min(std::f64::consts::PI).cos()
+    }
+
     pub(crate) fn validate(&self) -> Result<(), crate::KdTreeError> {
         if self.max_distance.is_nan() || self.max_distance < 0.0 {
             return Err(crate::KdTreeError::BadParameter {

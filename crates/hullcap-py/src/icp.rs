@@ -55,6 +55,15 @@ fn stats_dict<'py>(py: Python<'py>, stats: &FitStats) -> PyResult<Bound<'py, PyD
     d.set_item("coverage", stats.coverage)?;
     d.set_item("mean_reverse_residual", stats.mean_reverse_residual)?;
     d.set_item("sigma", stats.sigma)?;
+    let counts: Vec<i64> = stats
+        .links
+        .iter()
+        .flat_map(|c| [c.points, c.inliers, c.samples, c.covered].map(i64::from))
+        .collect();
+    d.set_item(
+        "link_counts",
+        PyArray1::from_vec(py, counts).reshape(vec![stats.links.len(), 4])?,
+    )?;
     Ok(d)
 }
 
