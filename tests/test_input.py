@@ -238,3 +238,33 @@ def test_sequence_errors_name_the_file(sequence, tmp_path):
     (bad / "cameras.json").unlink()
     with pytest.raises(ValueError, match="missing cameras.json"):
         Sequence(bad)
+
+
+def test_a_hole_in_one_view_is_overruled_where_the_others_and_the_prior_agree():
+    """An arm (a horizontal capsule) that one camera's silhouette misses: the strict hull
+    loses it, a hull that lets one view be overruled keeps it; with a prior that covers
+    only the torso, the arm stays out."""
+    cams = ring(8, radius=3.0)
+    torso = ((0.0, 0.0, 0.8), (0.0, 0.0, 1.4), 0.15)
+    arm = ((0.15, 0.0, 1.3), (0.6, 0.0, 1.3), 0.05)
+    v, f = capsule_union_mesh([torso, arm], 0.005)
+    masks = _masks(cams, v, f)
+    tv, tf = capsule_union_mesh([torso], 0.005)
+    arm_only = [(m > 0) & ~(t > 0) for m, t in zip(masks, _masks(cams, tv, tf))]
+    masks[0] = np.where(arm_only[0], 0, masks[0]).astype(np.uint8)  # one view (side-on) misses the arm
+    hand = np.array([0.55, 0.0, 1.3])
+
+    def reaches_hand(hull):
+        return np.linalg.norm(hull.vertices - hand, axis=1).min() < 0.06
+
+    assert not reaches_hand(visual_hull(masks, cams))
+    assert reaches_hand(visual_hull(masks, cams, tolerance=1))
+    with_body = [m > 0 for m in _masks(cams, v, f)]
+    assert reaches_hand(visual_hull(masks, cams, tolerance=1, priors=with_body))
+    torso_only = [m > 0 for m in _masks(cams, tv, tf)]
+    assert not reaches_hand(visual_hull(masks, cams, tolerance=1, priors=torso_only))
+    # Two views missing it are not overruled.
+    masks[4] = np.where(arm_only[4], 0, masks[4]).astype(np.uint8)
+    assert not reaches_hand(visual_hull(masks, cams, tolerance=1))
+    with pytest.raises(ValueError, match="7 priors for 8 cameras"):
+        visual_hull(masks, cams, tolerance=1, priors=with_body[:7])

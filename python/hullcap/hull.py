@@ -38,22 +38,28 @@ class HullReport:
     mesh_seconds: float = 0.0
 
 
-class _View:
-    """One camera's mask as the carving needs it: signed distance to the silhouette edge."""
+def _signed_distance(mask) -> np.ndarray:
+    """Pixels to the nearest pixel of the other class, positive inside the mask."""
+    inside = (np.asarray(mask) > 0).astype(np.uint8)
+    d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
+    d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
+    return np.where(inside > 0, d_in, -d_out).astype(np.float32)
 
-    def __init__(self, camera, mask):
+
+class _View:
+    """One camera's mask as the carving needs it: signed distance to the silhouette edge
+    (and to the prior's, when one is given)."""
+
+    def __init__(self, camera, mask, prior=None):
         self.camera = camera
-        inside = (mask > 0).astype(np.uint8)
-        # Distance of each pixel to the nearest pixel of the other class, signed: positive
-        # inside the silhouette.
-        d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
-        d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
-        self.signed = np.where(inside > 0, d_in, -d_out).astype(np.float32)
+        self.signed = _signed_distance(mask)
+        self.prior = None if prior is None else _signed_distance(prior)
         self.focal = float(max(camera.K[0, 0], camera.K[1, 1]))
 
     def lookup(self, points):
-        """(signed distance in pixels at each point's projection, depth); points outside
-        the image or behind the camera get +inf (this view cannot carve them)."""
+        """(signed distance in pixels at each point's projection, the same in the prior
+        (+inf without one), depth); points outside the image or behind the camera get
+        +inf (this view cannot carve them)."""
         px, z = self.camera.project(points)
         u = np.rint(px[:, 0]).astype(np.int64)
         v = np.rint(px[:, 1]).astype(np.int64)
@@ -61,12 +67,15 @@ class _View:
         ok = (z > 1e-6) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
         d = np.full(len(points), np.inf, np.float32)
         d[ok] = self.signed[v[ok], u[ok]]
-        return d, np.where(z > 1e-6, z, np.inf)
+        p = np.full(len(points), np.inf, np.float32)
+        if self.prior is not None:
+            p[ok] = self.prior[v[ok], u[ok]]
+        return d, p, np.where(z > 1e-6, z, np.inf)
 
 
 def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
                 report: HullReport | None = None, smooth: float = 0.7,
-                min_views: int = 3) -> Surface:
+                min_views: int = 3, tolerance: int = 0, priors=None) -> Surface:
     """The visual hull of silhouettes as a closed, outward-oriented surface.
 
     Args:
@@ -81,6 +90,14 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         min_views: a voxel is kept only if at least this many views have it in their
             image (views that do not see a point cannot carve it, so a point that few
             cameras see is barely constrained).
+        tolerance: how many views may leave a voxel out and be overruled by all the
+            others: a part of the body that one silhouette misses (clothes the colour of
+            the wall behind) would otherwise be cut from the hull as a tunnel through it.
+            It applies only where at least four views agree.
+        priors: one (H, W) mask per camera of where the body is expected (the predicted
+            model's silhouette, dilated by its uncertainty): a voxel kept against a view
+            must lie inside every view's prior. Without priors the tolerance holds
+            everywhere, and the hull grows by what one view alone carved off.
 
     Returns:
         A :class:`~hullcap.mesh.Surface`: vertices (metres), faces, unit outward normals.
@@ -94,22 +111,30 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         raise ValueError(f"{len(masks)} masks for {len(cameras)} cameras")
     if not voxel_size > 0:
         raise ValueError(f"voxel_size must be positive, got {voxel_size}")
+    if priors is not None and len(priors) != len(cameras):
+        raise ValueError(f"{len(priors)} priors for {len(cameras)} cameras")
+    if tolerance < 0:
+        raise ValueError(f"tolerance must be >= 0, got {tolerance}")
     views = []
-    for cam, m in zip(cameras, masks):
+    for i, (cam, m) in enumerate(zip(cameras, masks)):
         m = np.asarray(m)
         if m.shape != (cam.height, cam.width):
             raise ValueError(f"camera {cam.name!r}: mask is {m.shape[::-1]} pixels, the camera {cam.width}×{cam.height}")
         if not m.any():
             report.skipped[cam.name] = "empty mask"
             continue
-        views.append(_View(cam, m))
+        prior = None if priors is None else np.asarray(priors[i])
+        if prior is not None and prior.shape != m.shape:
+            raise ValueError(f"camera {cam.name!r}: prior is {prior.shape[::-1]} pixels, the mask {m.shape[::-1]}")
+        views.append(_View(cam, m, prior))
     if not views:
         raise ValueError("every mask is empty: nothing to carve")
     if report.skipped:
         warnings.warn(f"visual hull: views left out: {report.skipped}", stacklevel=2)
     lo, hi = (np.asarray(b, float) for b in (bounds if bounds is not None else capture_volume(cameras)))
     t0 = time.perf_counter()
-    origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views)
+    tolerance = min(tolerance, max(0, len(views) - 4))
+    origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views, tolerance, priors is not None)
     report.carve_seconds = time.perf_counter() - t0
     if not occupancy.any():
         raise ValueError("the visual hull is empty: the silhouettes do not agree on any point of the volume")
@@ -119,10 +144,11 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     return surface
 
 
-def _carve(views, lo, hi, h, report, min_views):
+def _carve(views, lo, hi, h, report, min_views, tolerance, with_prior):
     """``(origin, occupancy)``: a boolean grid of the finest voxels holding the hull, with
     at least two empty voxels all round, and the world position of its voxel (0, 0, 0)'s
-    corner."""
+    corner. Up to `tolerance` views may leave a voxel out (inside every prior when
+    `with_prior`)."""
     n_fine = np.maximum(np.ceil((hi - lo) / h).astype(int), 1)
     levels = min(5, max(0, int(np.ceil(np.log2(max(n_fine.max() / 24, 1))))))
     n0 = np.ceil(n_fine / 2**levels).astype(int)
@@ -134,23 +160,29 @@ def _carve(views, lo, hi, h, report, min_views):
         centres = lo + (cells + 0.5) * size
         report.voxels_tested += len(cells)
         if level == 0:
-            inside = np.ones(len(cells), bool)
+            missed = np.zeros(len(cells), int)
             seen_by = np.zeros(len(cells), int)
+            prior_in = np.ones(len(cells), bool)
             for view in views:
-                d, _ = view.lookup(centres)
-                inside &= d >= 0
+                d, p, _ = view.lookup(centres)
+                missed += d < 0
                 seen_by += np.isfinite(d)
+                prior_in &= p >= 0
+            inside = (missed == 0) | ((missed <= tolerance) & prior_in)
             inside &= seen_by >= min(min_views, len(views))
             blocks.append((cells[inside], 1))
             break
         radius_world = size * np.sqrt(3) / 2
         all_in = np.ones(len(cells), bool)
-        out = np.zeros(len(cells), bool)
+        out_count = np.zeros(len(cells), int)
+        prior_out = np.zeros(len(cells), bool)
         for view in views:
-            d, z = view.lookup(centres)
+            d, p, z = view.lookup(centres)
             r = view.focal * radius_world / z
-            out |= d < -r
+            out_count += d < -r
+            prior_out |= p < -r
             all_in &= np.isfinite(d) & (d > r)  # unseen: decided at the finest level
+        out = (out_count > tolerance) | ((out_count > 0) & prior_out) if with_prior else out_count > tolerance
         blocks.append((cells[all_in & ~out] * 2**level, 2**level))
         boundary = cells[~all_in & ~out]
         cells = (boundary[:, None, :] * 2 + offsets).reshape(-1, 3)
