@@ -71,7 +71,8 @@ def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     for p in poses:
         posed = truth_model.pose(p.theta, p.root_rotation, p.root_translation)
         surfaces.append(Surface(posed.vertices, truth_model.faces, posed.normals))
-    subject = build_subject(surfaces)
+    calibration = build_subject(surfaces[0])  # placed in the calibration pose, then fitted to all
+    subject = build_subject(surfaces, poses=[calibration.pose] * len(surfaces))
 
     def lengths(m):
         j = dict(zip(m.joint_names, m.pose().joints))

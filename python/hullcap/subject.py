@@ -13,7 +13,7 @@ the rest pose (the paper's way); its skin weights are computed afresh.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -46,6 +46,17 @@ class SubjectOptions:
         prior_distance: metres of pair distance one prior standard deviation is worth
             (see ``hullcap_icp::ShapePrior``): 3 mm, about a voxel's error, so that what
             the hulls do show wins over the prior.
+        stature: the heights (metres) a hull of the calibration pose may have: a small
+            child to a very tall adult. A hull outside it is not a person standing in the
+            calibration pose (noise, a prop, half a body), and no model is built from it.
+        calibration_limits: joint limits (degrees, by DOF name; a name without ``l_``/``r_``
+            means both sides) while the model is placed in the first hull, which shows the
+            calibration pose: a T- or A-pose, elbows and knees straight, arms spread, legs
+            apart, feet flat and forward. Without them a limb that a silhouette misses can
+            fold onto its neighbour at no cost (a model point without a partner costs
+            nothing), and a body facing backwards fits a T-pose almost as well as the right
+            one once its ankles turn the feet round: the feet are what tells front from
+            back. Frames of motion are fitted with the model's own limits.
         headings: placements tried in the first hull, evenly spaced about the vertical.
         keep: the best placements (by coverage and inliers after a quick fit) refined.
         iterations: most Levenberg–Marquardt iterations of the shape fit.
@@ -61,6 +72,11 @@ class SubjectOptions:
     centre_sigma: float = 0.03
     scale_sigma: float = 0.5
     prior_distance: float = 0.003
+    stature: tuple = (0.8, 2.5)
+    calibration_limits: dict = field(default_factory=lambda: {
+        "elbow_flexion": (0, 25), "knee_flexion": (0, 20), "hip_flexion": (-20, 20), "hip_twist": (-20, 20),
+        "ankle_flexion": (-20, 20), "ankle_inversion": (-15, 15), "shoulder_flexion": (-30, 30),
+        "shoulder_abduction": (-70, 30), "waist_flexion": (-15, 15), "waist_twist": (-20, 20)})
     headings: int = 8
     keep: int = 3
     iterations: int = 40
@@ -114,7 +130,9 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
         hulls: a :class:`~hullcap.mesh.Surface`, or several (frames of the calibration
             pose and of the first motion; the first is where the model is placed).
         poses: a starting pose per hull (e.g. from tracking with an earlier model);
-            default: the placement found in the first hull, for every hull.
+            default: the placement found in the first hull, for every hull, and every
+            hull is then taken to show the calibration pose (fitted within
+            ``options.calibration_limits``): frames of motion need their poses.
         template: the body to start from (default: :meth:`BodyModel.template`).
         options: see :class:`SubjectOptions`.
     """
@@ -125,14 +143,20 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     if poses is not None and len(poses) != len(hulls):
         raise ValueError(f"{len(poses)} starting poses for {len(hulls)} hulls")
     template = template or BodyModel.template()
+    height = _height(hulls[0].vertices)
+    if not options.stature[0] <= height <= options.stature[1]:
+        raise ValueError(f"the first hull is {height:.2f} m tall: not a person in the calibration pose "
+                         f"(SubjectOptions.stature is {options.stature[0]}-{options.stature[1]} m)")
     basis = options.basis(template.link_model)
     shape0 = np.zeros(len(basis))
-    shape0[0] = _height(hulls[0].vertices) / _height(template.vertices) - 1.0
+    shape0[0] = height / _height(template.vertices) - 1.0
     targets = [make_target(h) for h in hulls]
+    # With no poses given every hull shows the calibration pose: fit it within its limits.
+    fitted_body = template if poses is not None else _limited(template, options.calibration_limits)
     if poses is None:
-        start = place_model(template.shaped(basis, shape0), hulls[0], targets[0], options)
+        start = place_model(fitted_body.shaped(basis, shape0), hulls[0], targets[0], options)
         poses = [start.pose] * len(hulls)
-    engine = basis.engine(template._rig)
+    engine = basis.engine(fitted_body._rig)
     rotations = [np.asarray(p.root_rotation, float) for p in poses]
     translations = [np.asarray(p.root_translation, float) for p in poses]
     found, fitted, _, _ = _engine.fit_shape(
@@ -167,6 +191,21 @@ def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOp
     tried.sort(key=lambda t: t[0], reverse=True)
     refined = [fit(model, target, r.pose, options.fit) for _, r in tried[: options.keep]]
     return max(refined, key=_score)
+
+
+def _limited(model: BodyModel, limits: dict) -> BodyModel:
+    """`model` with the joint limits of `limits` (degrees by DOF name, both sides for a
+    name without a side), the same mesh and skin."""
+    links = model.link_model
+    new = links.dof_limits.copy()
+    for name, (lo, hi) in limits.items():
+        names = [name] if name[:2] in ("l_", "r_") else [f"l_{name}", f"r_{name}", name]
+        hits = [links.dof_names.index(n) for n in names if n in links.dof_names]
+        if not hits:
+            raise ValueError(f"calibration_limits names unknown DOF {name!r}")
+        new[hits] = np.radians([lo, hi])
+    b, k = model.skin_parameters
+    return BodyModel(replace(links, dof_limits=new), model.vertices, model.faces, skin=model.skin, b=b, k=k)
 
 
 def _score(result: FitResult) -> float:
