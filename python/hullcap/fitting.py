@@ -58,6 +58,8 @@ class FitResult:
             of the hull the model explains.
         mean_reverse_residual: mean hull→model pair distance (metres).
         sigma: the final robust scale σ (metres).
+        link_counts: (L, 4) int per link: its model points, those that are inliers, the
+            hull samples nearest to its vertices, those the model covers.
     """
 
     pose: PoseParameters
@@ -69,6 +71,7 @@ class FitResult:
     coverage: float
     mean_reverse_residual: float
     sigma: float
+    link_counts: np.ndarray
 
 
 DEFAULT_NORMAL_WEIGHT = 0.05

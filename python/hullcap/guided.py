@@ -33,7 +33,7 @@ import numpy as np
 
 from hullcap.silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered
 
-__all__ = ["GuidedOptions", "ColourModel", "GuidedSegmenter"]
+__all__ = ["GuidedOptions", "ColourModel", "GuidedSegmenter", "dilated"]
 
 
 @dataclass(frozen=True)
@@ -156,6 +156,15 @@ class GuidedSegmenter:
         raw[roi] = np.where(logit > 0, 255, 0)
         area = float(prior.sum())
         return half_covered(clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area)), distortion)
+
+
+def dilated(silhouette: np.ndarray, fraction: float) -> np.ndarray:
+    """`silhouette` (bool) grown by `fraction` of its image height all round."""
+    box = _box(silhouette)
+    if box is None:
+        return silhouette
+    r = max(1, int(round(fraction * box[3])))
+    return cv2.dilate(silhouette.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))) > 0
 
 
 def _box(silhouette: np.ndarray):

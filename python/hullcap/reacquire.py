@@ -25,7 +25,7 @@ from hullcap._engine import FitOptions
 from hullcap.body import BodyModel
 from hullcap.fitting import FitResult, PoseParameters, fit, yaw_rotation
 
-__all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS"]
+__all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS", "chain_links", "chain_quality", "quality"]
 
 CANONICAL_POSES = {
     "arms down": {"shoulder_abduction": -75, "elbow_flexion": 15},
@@ -77,6 +77,28 @@ def quality(stats) -> float:
     return 0.5 * (get("inlier_fraction") + get("coverage"))
 
 
+def chain_links(model: BodyModel) -> list[np.ndarray]:
+    """The link indices of each chain of :data:`CHAINS` present in `model`."""
+    names = model.link_model.names
+    return [np.array([names.index(n) for n in chain if n in names], int) for chain in CHAINS.values()]
+
+
+MIN_PART_COUNT = 20
+"""Fewer model points or hull samples than this say nothing about a chain's fit."""
+
+
+def chain_quality(link_counts, chains: list[np.ndarray]) -> np.ndarray:
+    """(C,) ½(inlier fraction + coverage) of each chain from a fit's ``link_counts``;
+    NaN for a chain with too few points or samples to judge (:data:`MIN_PART_COUNT`)."""
+    counts = np.asarray(link_counts, float)
+    out = np.full(len(chains), np.nan)
+    for c, links in enumerate(chains):
+        points, inliers, samples, covered = counts[links].sum(0)
+        if points >= MIN_PART_COUNT and samples >= MIN_PART_COUNT:
+            out[c] = 0.5 * (inliers / points + covered / samples)
+    return out
+
+
 class PoseSearch:
     """The re-acquisition search for one model (see the module documentation)."""
 
@@ -87,11 +109,32 @@ class PoseSearch:
         self.options = options or SearchOptions()
         self._rng = np.random.default_rng(seed)
         self._canonical = [_angles(model, spec) for spec in CANONICAL_POSES.values()]
-        links = model.link_model
-        self._chains = [np.flatnonzero(np.isin(links.dof_links, [links.names.index(n) for n in chain
-                                                                  if n in links.names]))
-                        for chain in CHAINS.values()]
-        self._chains = [c for c in self._chains if len(c)]
+        dof_links = model.link_model.dof_links
+        self._chains = [np.flatnonzero(np.isin(dof_links, links)) for links in chain_links(model)]
+
+    def resample(self, target, start: FitResult, chains) -> tuple[FitResult, int]:
+        """`start` with each chain of `chains` (indices into :data:`CHAINS`) re-sampled on
+        its own (see the module documentation, step 3); returns the best fit and the ICP
+        iterations spent."""
+        best, iterations = start, 0
+        for c in chains:
+            dofs = self._chains[c]
+            if not len(dofs):
+                continue
+            lim = self.model.link_model.dof_limits[dofs]
+            samples = []
+            for _ in range(self.options.chain_samples):
+                theta = best.pose.theta.copy()
+                theta[dofs] = self._rng.uniform(lim[:, 0], lim[:, 1])
+                samples.append(PoseParameters(theta, best.pose.root_rotation, best.pose.root_translation))
+            top = self._rank(target, samples + [best.pose])
+            if top[0] is best.pose:
+                continue
+            result = fit(self.model, target, top[0], self.fit_options)
+            iterations += result.iterations
+            if quality(result) > quality(best):
+                best = result
+        return best, iterations
 
     def search(self, target, surface, recent: list[PoseParameters], calibration: PoseParameters | None) -> tuple[FitResult, int]:
         """The best fit found from the hull; returns it and the ICP iterations spent."""
@@ -115,21 +158,8 @@ class PoseSearch:
             iterations += result.iterations
             if best is None or quality(result) > quality(best):
                 best = result
-        for dofs in self._chains:
-            samples = []
-            lim = self.model.link_model.dof_limits[dofs]
-            for _ in range(self.options.chain_samples):
-                theta = best.pose.theta.copy()
-                theta[dofs] = self._rng.uniform(lim[:, 0], lim[:, 1])
-                samples.append(PoseParameters(theta, best.pose.root_rotation, best.pose.root_translation))
-            top = self._rank(target, samples + [best.pose])
-            if top[0] is best.pose:
-                continue
-            result = fit(self.model, target, top[0], self.fit_options)
-            iterations += result.iterations
-            if quality(result) > quality(best):
-                best = result
-        return best, iterations
+        best, spent = self.resample(target, best, range(len(self._chains)))
+        return best, iterations + spent
 
     def _rank(self, target, poses: list[PoseParameters]) -> list[PoseParameters]:
         stats = _engine.evaluate(self.model._rig, target, [np.asarray(p.theta, float).tolist() for p in poses],

@@ -48,6 +48,7 @@ class TrackingResult:
         energy, inlier_fraction, mean_residual, coverage, mean_reverse_residual: (F,) the
             fit statistics (:class:`~hullcap.fitting.FitResult`).
         iterations: (F,) ICP iterations spent on the frame, searches included.
+        link_counts: (F, L, 4) each frame's per-link counts (``FitResult.link_counts``).
         seconds: seconds spent per stage (silhouettes, hull, fit, subject).
     """
 
@@ -64,6 +65,7 @@ class TrackingResult:
     coverage: np.ndarray
     mean_reverse_residual: np.ndarray
     iterations: np.ndarray
+    link_counts: np.ndarray
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -81,7 +83,8 @@ class TrackingResult:
     def empty(cls, model: BodyModel, n: int, fps: float) -> TrackingResult:
         nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
         return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
-                   np.full(n, FAILED, np.uint8), *(nan() for _ in STATS), np.zeros(n, np.int64))
+                   np.full(n, FAILED, np.uint8), *(nan() for _ in STATS), np.zeros(n, np.int64),
+                   np.zeros((n, len(model.link_model.names), 4), np.int64))
 
     @classmethod
     def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
@@ -91,9 +94,11 @@ class TrackingResult:
         status = np.asarray(a["status"], np.uint8) if "status" in a else \
             np.where(np.asarray(a["failed"], bool), FAILED, GOOD).astype(np.uint8)
         stats = [np.asarray(a[k], float) if k in a else np.full(n, np.nan) for k in STATS]
+        links = np.asarray(a["link_counts"], np.int64) if "link_counts" in a else \
+            np.zeros((n, len(model.link_model.names), 4), np.int64)
         result = cls(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
                      np.full((n, len(model.joint_names), 3), np.nan), status, *stats,
-                     np.asarray(a["iterations"]))
+                     np.asarray(a["iterations"]), links)
         if "joints" in a:
             result.joints = np.asarray(a["joints"], float)
         else:
@@ -112,6 +117,7 @@ class TrackingResult:
         self.status[frame] = status
         for k in STATS:
             getattr(self, k)[frame] = getattr(result, k)
+        self.link_counts[frame] = result.link_counts
         self.iterations[frame] = result.iterations if iterations is None else iterations
         if status == FAILED:
             self.fail(frame)
@@ -126,7 +132,8 @@ class TrackingResult:
         out = {"root_translation": self.root_translation, "root_rotation": self.root_rotation,
                "theta": self.theta, "dof_names": np.array(self.model.dof_names),
                "joint_names": np.array(self.model.joint_names), "failed": self.failed,
-               "status": self.status, "iterations": self.iterations, "joints": self.joints, "fps": self.fps}
+               "status": self.status, "iterations": self.iterations, "link_counts": self.link_counts,
+               "joints": self.joints, "fps": self.fps}
         return out | {k: getattr(self, k) for k in STATS}
 
     def interpolated(self) -> TrackingResult:

@@ -34,11 +34,11 @@ import numpy as np
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target
-from hullcap.guided import GuidedOptions, GuidedSegmenter
+from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
 from hullcap.render import render_depth
-from hullcap.reacquire import PoseSearch, SearchOptions, quality
+from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality, quality
 from hullcap.results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap.sequence import Sequence
 from hullcap.silhouette import background_model
@@ -62,6 +62,13 @@ class TrackerOptions:
             the model at its predicted pose and by the subject's colours
             (:mod:`hullcap.guided`); the statistical test alone otherwise.
         guidance: the guided silhouettes' options.
+        hull_tolerance: views that may leave a voxel out and be overruled by the others
+            (:func:`hullcap.visual_hull`): within the predicted model's silhouettes, dilated
+            by ``guidance.band``, while tracking; anywhere in the first frame, which has no
+            prediction yet (its hull is then a little larger where one view alone carved).
+            ``None``: 1 for silhouettes by background subtraction, which may miss a part in
+            one view, 0 for the sequence's own silhouettes, which are taken as they are
+            (every view overruled adds phantom volume to the hull).
         fit: the per-frame fit (two-sided by default; ``reverse_weight=0`` is the paper's
             one-sided energy).
         subject: how the subject's model is built.
@@ -73,12 +80,18 @@ class TrackerOptions:
             reference a new frame is judged against.
         quality_margin: a fit is good when its quality is at most this far below the
             reference. Quality is a fraction of points (0…1); in good tracking it varies by
-            a few hundredths from frame to frame, a lost limb costs about a tenth.
+            a few hundredths from frame to frame.
+        chain_margin: and when each limb chain's quality (:func:`hullcap.reacquire.
+            chain_quality`) is at most this far below that chain's own reference. A whole
+            body's quality barely moves when one arm is lost (an arm is a few per cent of
+            the body); the arm's own falls from 0.7–0.95 to 0.2–0.55.
         min_quality: a fit below this is never good, whatever the reference.
-        min_subject_quality: the quality the subject's model must reach in a frame for
-            tracking to start there. A calibration pose seen by the cameras is explained to
-            0.85–0.95; a frame that does not show the person (noise, clutter, a half-empty
-            volume) far less.
+        min_subject_agreement: how well the subject's model, fitted in a frame, must
+            agree with that frame's silhouettes (mean over the views of the intersection
+            over union of the model's silhouette and the mask) for tracking to start there.
+            A person in the calibration pose agrees to 0.6–0.7 with poor masks and 0.9–0.95
+            with exact ones; blobs of noise, which the hull and the fit can still make
+            something of, agree to less than 0.05.
         reacquire: search from the hull when a fit is not good (else the frame fails).
         search: the search's options.
     """
@@ -88,6 +101,7 @@ class TrackerOptions:
     use_silhouettes: bool = True
     guided: bool = True
     guidance: GuidedOptions = field(default_factory=GuidedOptions)
+    hull_tolerance: int | None = None
     fit: FitOptions = field(default_factory=lambda: FitOptions(rounds=2, reverse_weight=1.0))
     subject: SubjectOptions = field(default_factory=SubjectOptions)
     refine_joints: bool = True
@@ -95,8 +109,9 @@ class TrackerOptions:
     calibration_frames: int = 8
     quality_window: int = 30
     quality_margin: float = 0.1
+    chain_margin: float = 0.2
     min_quality: float = 0.5
-    min_subject_quality: float = 0.75
+    min_subject_agreement: float = 0.5
     reacquire: bool = True
     search: SearchOptions = field(default_factory=SearchOptions)
     seed: int = 0
@@ -126,6 +141,7 @@ class Tracker:
         self._bounds = capture_volume(sequence.cameras)
         self._backgrounds = None
         self._guided = None
+        self._last_masks = (None, [])
         self.seconds: dict = defaultdict(float)
         self.problems: list[str] = []
         """Frames and views left out, and why."""
@@ -136,9 +152,10 @@ class Tracker:
     def _given_silhouettes(self) -> bool:
         return self.options.use_silhouettes and self.sequence.has_silhouettes
 
-    def masks(self, frame: int, prior=None) -> list[np.ndarray]:
+    def masks(self, frame: int, priors=None) -> list[np.ndarray]:
         """The silhouettes of `frame`: given, or by background subtraction, guided by the
-        model at a pose (`prior`: ``(model, PoseParameters)``) when the options say so."""
+        predicted model's silhouettes `priors` (one bool mask per view) when the options
+        say so."""
         t0 = time.perf_counter()
         seq = self.sequence
         if self._given_silhouettes:
@@ -155,10 +172,14 @@ class Tracker:
             if segmenters is None:
                 masks = [m.mask(img) for m, img in zip(self._backgrounds, images)]
             else:
-                priors = self._silhouettes(*prior) if prior is not None else [None] * len(images)
-                masks = [s.mask(img, p) for s, img, p in zip(segmenters, images, priors)]
+                masks = [s.mask(img, p) for s, img, p in zip(segmenters, images, priors or [None] * len(images))]
         self.seconds["silhouettes"] += time.perf_counter() - t0
         return masks
+
+    @property
+    def _hull_tolerance(self) -> int:
+        tolerance = self.options.hull_tolerance
+        return tolerance if tolerance is not None else (0 if self._given_silhouettes else 1)
 
     def _segmenters(self):
         """The background models; the guided segmenters built on them, or None."""
@@ -191,18 +212,35 @@ class Tracker:
             seg.learn(img, sil)
 
     def hull(self, frame: int, prior=None):
-        """The visual hull of `frame` (silhouettes guided by `prior`, see :meth:`masks`);
-        `ValueError` when there is none."""
-        masks = self.masks(frame, prior)
+        """The visual hull of `frame`, with the model at a predicted pose as its prior
+        (`prior`: ``(model, PoseParameters)``): it guides the silhouettes (:meth:`masks`)
+        and says where a view that misses a part may be overruled (`hull_tolerance`).
+        `ValueError` when there is no hull."""
+        silhouettes = None if prior is None else self._silhouettes(*prior)
+        masks = self.masks(frame, silhouettes)
+        self._last_masks = (frame, masks)
         t0 = time.perf_counter()
         report = HullReport()
+        priors = None if silhouettes is None else [dilated(s, self.options.guidance.band) for s in silhouettes]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
-                return visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self._bounds, report)
+                return visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self._bounds, report,
+                                   tolerance=self._hull_tolerance, priors=priors)
         finally:
             self.problems += [f"frame {frame}: camera {c!r} left out ({why})" for c, why in report.skipped.items()]
             self.seconds["hull"] += time.perf_counter() - t0
+
+    def _agreement(self, frame: int, model: BodyModel, pose: PoseParameters) -> float:
+        """Mean over the views of the IoU of `model`'s silhouette at `pose` and the masks
+        the last hull of `frame` was carved from."""
+        last, masks = self._last_masks
+        assert last == frame, "the hull of this frame must be the last one carved"
+        ious = []
+        for mask, sil in zip(masks, self._silhouettes(model, pose)):
+            union = np.logical_or(mask > 0, sil).sum()
+            ious.append(np.logical_and(mask > 0, sil).sum() / union if union else 0.0)
+        return float(np.mean(ious))
 
     # -- the sequence ------------------------------------------------------------------
 
@@ -247,7 +285,7 @@ class Tracker:
                 continue
             if self.model is not None:
                 placed = place_model(self.model, hull, options=options.subject)
-                if quality(placed) >= options.min_subject_quality:
+                if self._agreement(frame, self.model, placed.pose) >= options.min_subject_agreement:
                     self.learn_colours(frame, self.model, placed.pose, fresh=True)
                     return self.model, frame, placed
                 continue
@@ -262,9 +300,10 @@ class Tracker:
             except ValueError as e:
                 self.problems.append(f"frame {frame}: {e}")
                 continue
-            if quality(subject.fit) < options.min_subject_quality:
-                self.problems.append(f"frame {frame}: the body model explains too little of the hull "
-                                     f"(quality {quality(subject.fit):.2f}) to start from")
+            agreement = self._agreement(frame, subject.model, subject.pose)
+            if agreement < options.min_subject_agreement:
+                self.problems.append(f"frame {frame}: the body model fitted there agrees too little with the "
+                                     f"silhouettes (mean IoU {agreement:.2f}) to start from")
                 continue
             if not options.refine_joints:
                 return subject.model, frame, subject.fit
@@ -315,17 +354,23 @@ class Tracker:
                 break
         status = GOOD if best is not None and state.good(best) else FAILED
         if status == FAILED and self.options.reacquire:
-            found, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose)
-            iterations += spent
-            if best is None or quality(found) > quality(best):
-                best = found
+            lost = [] if best is None else state.lost_chains(best)
+            if best is not None and lost and quality(best) >= state.floor():
+                # Only limbs are lost: re-sample those first, the whole search if that fails.
+                best, spent = state.search.resample(target, best, lost)
+                iterations += spent
+            if best is None or not state.good(best):
+                found, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose)
+                iterations += spent
+                if best is None or quality(found) > quality(best):
+                    best = found
             status = RECOVERED if state.good(best) else FAILED
         if best is None:  # nothing to start from and no search
             result.fail(frame)
             return
         result.record(frame, best, status, iterations)
         if status != FAILED:
-            state.reference.append(quality(best))
+            state.remember_fit(best)
         self.seconds["fit"] += time.perf_counter() - t0
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
@@ -352,16 +397,26 @@ class _State:
         self.model = model
         self.options = options
         self.search = PoseSearch(model, options.fit, options.search, options.seed)
+        self.chains = chain_links(model)
+        # The limbs are judged on their own; the trunk, most of the body, by the whole.
+        self.limbs = [c for c, name in enumerate(CHAINS) if name != "trunk"]
         self.reference: deque = deque(maxlen=options.quality_window)
+        self.chain_reference: deque = deque(maxlen=options.quality_window)
         self.anchor_pose = anchor.pose if anchor is not None else None
         if anchor is not None:
-            self.reference.append(quality(anchor))
+            self.remember_fit(anchor)
+
+    def remember_fit(self, fitted) -> None:
+        """Take a good fit's quality, and its chains', into the references."""
+        self.reference.append(quality(fitted))
+        self.chain_reference.append(chain_quality(fitted.link_counts, self.chains))
 
     def remember(self, result: TrackingResult, upto: int) -> None:
         """Take the reference quality and the anchor from frames already tracked (resume)."""
         done = [f for f in range(upto) if not result.failed[f]]
         for f in done[-self.options.quality_window:]:
             self.reference.append(float(result.quality[f]))
+            self.chain_reference.append(chain_quality(result.link_counts[f], self.chains))
         if done:
             f = done[0]
             self.anchor_pose = PoseParameters(result.theta[f], result.root_rotation[f], result.root_translation[f])
@@ -370,10 +425,24 @@ class _State:
         """Whether nothing before `frame` was tracked and the anchor is the prediction."""
         return self.anchor_pose is not None and result.failed[:frame].all()
 
+    def floor(self) -> float:
+        """The least whole-body quality of a good fit."""
+        reference = float(np.median(self.reference)) if self.reference else 0.0
+        return max(self.options.min_quality, reference - self.options.quality_margin)
+
+    def lost_chains(self, fitted: FitResult) -> list[int]:
+        """The limb chains whose quality lies more than ``chain_margin`` below their
+        reference."""
+        if not self.chain_reference:
+            return []
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a chain never judged: all NaN
+            reference = np.nanmedian(np.array(self.chain_reference), axis=0)
+        q = chain_quality(fitted.link_counts, self.chains)
+        return [c for c in self.limbs if q[c] < reference[c] - self.options.chain_margin]
+
     def good(self, fitted: FitResult) -> bool:
-        q = quality(fitted)
-        reference = float(np.median(self.reference)) if self.reference else q
-        return q >= self.options.min_quality and q >= reference - self.options.quality_margin
+        return quality(fitted) >= self.floor() and not self.lost_chains(fitted)
 
     def recent(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
         """Good poses before `frame`, newest first, spaced back over about a second."""
