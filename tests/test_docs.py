@@ -23,3 +23,30 @@ def test_cli_reference_is_current(monkeypatch):
 
     monkeypatch.setenv("COLUMNS", "100")
     assert (DOCS / "cli.md").read_text().rstrip() == reference().rstrip(), "run `make docs`"
+
+
+ROOT = DOCS.parent.resolve()
+CHECKED = ("README.md", "docs", "python", "crates", "tests", "benchmarks", "data", "Makefile", "pyproject.toml")
+MD_REFERENCE = re.compile(r"(?<![\w./-])((?:\.\./)*[\w./-]*[\w-]+\.md)\b")
+
+
+def _sources():
+    for entry in CHECKED:
+        path = ROOT / entry
+        files = [path] if path.is_file() else path.rglob("*")
+        for f in files:
+            if f.is_file() and f.suffix in (".md", ".py", ".rs", ".pyi", ".json", ".toml", "") and "devset" not in f.parts:
+                yield f
+
+
+def test_every_markdown_file_the_repository_names_exists():
+    """Code and docs cite only documents the repository holds: a reference resolves,
+    inside the repository, from the citing file's folder, from docs/ or from the root."""
+    missing = []
+    for f in _sources():
+        for ref in MD_REFERENCE.findall(f.read_text(errors="ignore")):
+            name = ref.split("#")[0]
+            found = [(base / name).resolve() for base in (f.parent, DOCS, ROOT)]
+            if not any(p.is_file() and p.is_relative_to(ROOT) for p in found):
+                missing.append(f"{f.relative_to(ROOT)}: {ref}")
+    assert not missing, missing

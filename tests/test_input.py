@@ -232,6 +232,12 @@ def test_sequence_errors_name_the_file(sequence, tmp_path):
         seq.images(3)
     with pytest.raises(IndexError, match="frame 42 out of range"):
         seq.images(42)
+    # Your own masks at another resolution are refused when the sequence is opened.
+    (bad / "silhouettes" / "cam0").mkdir(parents=True)
+    cv2.imwrite(str(bad / "silhouettes" / "cam0" / "000000.png"), np.zeros((120, 160), np.uint8))
+    with pytest.raises(ValueError, match=r"cam0/000000.png: mask is 160×120, camera 'cam0' is calibrated for 320×240"):
+        Sequence(bad)
+    shutil.rmtree(bad / "silhouettes")
     shutil.rmtree(bad / "frames" / "cam2")
     with pytest.raises(ValueError, match="camera 'cam2' has no frames/cam2/"):
         Sequence(bad)

@@ -54,7 +54,7 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     acc = accuracy(result, short_sequence)
     assert acc.failed == 0
     assert acc.mean_mm < 25, acc.table()
-    # The outputs of FORMATS.md.
+    # The outputs of docs/formats.md.
     header = (tmp_path / "out" / "joints.csv").read_text().splitlines()
     assert header[0] == "frame,time,joint,x,y,z,status" and len(header) == 1 + 20 * 21
     pose = np.load(tmp_path / "out" / "pose.npz")

@@ -1,4 +1,4 @@
-"""The articulated deformable body model (DESIGN.md §1–2): link model, rest mesh, skin
+"""The articulated deformable body model (docs/design.md §1–2): link model, rest mesh, skin
 weights, posing and its derivatives.
 
 ``BodyModel.template()`` is the standard adult of ``data/body/`` (made by

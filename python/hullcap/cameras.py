@@ -1,4 +1,4 @@
-"""Calibrated cameras: OpenCV's pinhole model with distortion (FORMATS.md, cameras.json).
+"""Calibrated cameras: OpenCV's pinhole model with distortion (docs/formats.md, cameras.json).
 
 A world point X (metres, z up) maps to camera coordinates x = R·X + t, then to pixels by
 K after the distortion dist = [k1, k2, p1, p2, k3]. Pixel (0, 0) is the centre of the
@@ -152,7 +152,7 @@ class Cameras(Sequence[Camera]):
 
     @classmethod
     def load(cls, path) -> Cameras:
-        """Read ``cameras.json`` (FORMATS.md); errors name the file, camera and field."""
+        """Read ``cameras.json`` (docs/formats.md); errors name the file, camera and field."""
         path = Path(path)
         spec = read_document(path)
         if spec.get("units", "m") != "m":

@@ -1,5 +1,5 @@
 """Fitting the body model to a target surface: robust hierarchical articulated ICP
-(DESIGN.md §4–5), run by the engine (``crates/hullcap-icp``)."""
+(docs/design.md §4–5), run by the engine (``crates/hullcap-icp``)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The visual hull (DESIGN.md §7): coarse-to-fine voxel carving, then marching cubes.
+"""The visual hull (docs/design.md §7): coarse-to-fine voxel carving, then marching cubes.
 
 A voxel is carved when, in some view, its whole footprint lies outside the silhouette.
 The footprint of a cube of side h centred at X is inside the disc of radius

@@ -1,4 +1,4 @@
-"""The link model (DESIGN.md §1): joint links with revolute DOF, structure links, joint
+"""The link model (docs/design.md §1): joint links with revolute DOF, structure links, joint
 sites and the hierarchy of joint groups, read from a JSON file and validated.
 
 The standard model is ``data/body/links.json``; its ``about`` field states the frame and
@@ -40,7 +40,7 @@ class LinkModel:
         joint_names: the output joints, in output order; each is a link's origin or a site.
         joint_links: (J,) int link of each output joint; joint_points (J, 3) its position.
         hierarchy: the DOF indices of each joint group, fitted in this order after the
-            root (DESIGN.md §5).
+            root (docs/design.md §5).
         source: where it was read from (for error messages).
     """
 

@@ -1,4 +1,4 @@
-"""Scripted motions of the body model for synthetic sequences (DESIGN.md §11).
+"""Scripted motions of the body model for synthetic sequences (docs/design.md §11).
 
 A motion is a list of keyframes ``(seconds, joint angles in degrees by DOF name, root
 offset in metres, root yaw in degrees)``; poses between keyframes follow a smooth

@@ -1,4 +1,4 @@
-"""Reading a multi-view sequence folder (FORMATS.md), frame by frame.
+"""Reading a multi-view sequence folder (docs/formats.md), frame by frame.
 
 Nothing is loaded before it is asked for: ``seq.images(i)`` reads frame i of every camera,
 ``seq.masks(i)`` its silhouettes when the folder has them. Each problem (a missing
@@ -47,6 +47,21 @@ class Sequence:
             if not (has_frames or has_video or has_masks):
                 raise ValueError(f"{self.path}: camera {cam.name!r} has no frames/{cam.name}/, "
                                  f"videos/{cam.name}.mp4 or silhouettes/{cam.name}/")
+            if has_masks:
+                self._check_mask_size(cam)
+
+    def _check_mask_size(self, cam) -> None:
+        """Masks of another size than the camera's images are a mistake for the whole
+        camera (another segmenter's resolution, a crop): refuse them at once, naming the
+        first such file, rather than leave the view out of every frame."""
+        first = next(iter(sorted((self.path / "silhouettes" / cam.name).glob("*.png"))), None)
+        if first is None:
+            return
+        img = cv2.imread(str(first), cv2.IMREAD_GRAYSCALE)
+        if img is not None and img.shape != (cam.height, cam.width):
+            raise ValueError(f"{first}: mask is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is "
+                             f"calibrated for {cam.width}×{cam.height}: silhouettes must have the size of "
+                             f"the camera's images")
 
     def __len__(self) -> int:
         return self.n_frames

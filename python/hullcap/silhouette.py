@@ -1,4 +1,4 @@
-"""Silhouettes by statistical background subtraction (DESIGN.md §6).
+"""Silhouettes by statistical background subtraction (docs/design.md §6).
 
 The model of Horprasert, Harwood and Davis (1999): each background pixel has an expected
 colour E and a per-channel spread s. A new colour I is compared along and across the line

@@ -1,7 +1,7 @@
-"""Synthetic multi-view sequences rendered by the project itself (DESIGN.md §11).
+"""Synthetic multi-view sequences rendered by the project itself (docs/design.md §11).
 
 :func:`render_sequence` renders any triangle-mesh sequence in a set of cameras into a
-sequence folder (FORMATS.md): colour frames of the subject over a textured scene (a
+sequence folder (docs/formats.md): colour frames of the subject over a textured scene (a
 checkered floor, a panelled backdrop) with a soft floor shadow and sensor noise, the empty
 scene as background images, and ``truth/`` with the exact silhouettes and whatever ground
 truth it is given. :func:`synthesize` drives the template body through a scripted motion

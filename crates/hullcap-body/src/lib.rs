@@ -1,4 +1,4 @@
-//! The articulated deformable body model of the paper's §2 (DESIGN.md §1–2).
+//! The articulated deformable body model of the paper's §2 (docs/design.md §1–2).
 //!
 //! - [`Skeleton`]: a tree of joint links with revolute DOF, forward kinematics T_j(θ)
 //!   and the axes and centres every DOF turns about.

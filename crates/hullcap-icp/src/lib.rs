@@ -1,4 +1,4 @@
-//! Robust articulated ICP (the paper's §3, DESIGN.md §4–5).
+//! Robust articulated ICP (the paper's §3, docs/design.md §4–5).
 //!
 //! The model's skinned vertices (a chosen subset) with their normals find their partners
 //! on the target surface through the normal-aware 6-D kd-tree; the pose minimises

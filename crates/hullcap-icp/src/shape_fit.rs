@@ -1,4 +1,4 @@
-//! The body's proportions fitted to several frames at once (DESIGN.md §8).
+//! The body's proportions fitted to several frames at once (docs/design.md §8).
 //!
 //! One shape vector s (see [`hullcap_body::Shape`]) is shared by F frames, each with its own
 //! pose; all are minimised together on the sum of the frames' robust energies (the same

@@ -1,4 +1,4 @@
-//! The normal-aware 6-D kd-tree of the paper's §3.2 (DESIGN.md §3).
+//! The normal-aware 6-D kd-tree of the paper's §3.2 (docs/design.md §3).
 //!
 //! Plain nearest neighbours pair an arm vertex with the torso right beside it. Here every
 //! target point r with unit normal n becomes the key (x, y, z, λ·nx, λ·ny, λ·nz), and a

@@ -1,4 +1,4 @@
-"""Outputs people load into other tools (DESIGN.md §10)."""
+"""Outputs people load into other tools (docs/design.md §10)."""
 
 from hullcap.export.bvh import write_bvh
 from hullcap.export.c3d import read_c3d, write_c3d

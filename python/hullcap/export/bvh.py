@@ -1,10 +1,10 @@
 """BVH motion files: the subject's skeleton and its motion, for Blender and friends.
 
-One BVH joint per canonical joint (DESIGN.md §1), named as in ``joints.csv``. Joints at a
+One BVH joint per canonical joint (docs/design.md §1), named as in ``joints.csv``. Joints at a
 link's centre of rotation carry that link's rotation relative to its parent; sites (chest,
 head, wrists, toes) are joints with rotation channels that stay zero, so that every
 canonical joint appears by name. Offsets come from the subject's model; the root carries
-its world position. Units are metres and the world is ours (z up, FORMATS.md): in Blender,
+its world position. Units are metres and the world is ours (z up, docs/formats.md): in Blender,
 import with "Forward: -Y, Up: Z" and scale 1. Rotation channels are in the order
 ``Zrotation Xrotation Yrotation`` (R = Rz·Rx·Ry, degrees).
 """
