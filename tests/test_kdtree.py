@@ -1,6 +1,7 @@
 """hullcap.NormalKDTree against a brute-force scan, its gates, and its input checks."""
 
 import math
+import sys
 import threading
 
 import numpy as np
@@ -137,8 +138,8 @@ def test_thread_counts_agree(rng):
         np.testing.assert_array_equal(one[1], many[1])
 
 
-def test_queries_from_python_threads_run_concurrently(rng):
-    """The GIL is released: several Python threads can share one tree."""
+def test_queries_from_python_threads_share_one_tree(rng):
+    """Several Python threads can query one tree at once and get the same answers."""
     points, normals = random_cloud(rng, 2000)
     qp, qn = random_cloud(rng, 2000)
     tree = hullcap.NormalKDTree(points, normals)
@@ -155,6 +156,34 @@ def test_queries_from_python_threads_run_concurrently(rng):
         t.join()
     for r in results:
         np.testing.assert_array_equal(r, want)
+
+
+def test_a_query_releases_the_gil(rng):
+    """Another Python thread runs while a query does. With a long switch interval the
+    main thread keeps the GIL unless it lets go, so the counter advances during the query
+    only if the engine releases it."""
+    points, normals = random_cloud(rng, 5000)
+    qp, qn = random_cloud(rng, 100_000)
+    tree = hullcap.NormalKDTree(points, normals)
+    ticks, stop = [0], threading.Event()
+
+    def count():
+        while not stop.is_set():
+            ticks[0] += 1
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(0.5)
+    counter = threading.Thread(target=count)
+    try:
+        counter.start()
+        before = ticks[0]
+        tree.query(qp, qn, threads=1)
+        during = ticks[0] - before
+    finally:
+        stop.set()
+        counter.join()
+        sys.setswitchinterval(interval)
+    assert during > 0
 
 
 BAD_BUILDS = [
