@@ -380,35 +380,11 @@ impl Rig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::chain;
+    use crate::testing::blended_rig;
     use nalgebra::{Rotation3, Unit};
 
-    /// Vertices scattered around the chain, each weighted on two neighbouring links.
     fn rig() -> Rig {
-        let mut v = Vec::new();
-        let mut index = Vec::new();
-        let mut weight = Vec::new();
-        for s in 0..30 {
-            let x = s as f64 * 0.1;
-            v.push([x, 0.2 * (s as f64).sin(), 0.2 * (s as f64).cos()]);
-            let j = ((x / 1.0) as u32).min(2);
-            let other = if j == 2 { 1 } else { j + 1 };
-            let w = 0.3 + 0.4 * (x.fract());
-            index.extend([j, other]);
-            weight.extend([w, 1.0 - w]);
-        }
-        let n: Vec<[f64; 3]> = v.iter().map(|p| [0.0, p[1], p[2]]).collect();
-        Rig::new(
-            chain(),
-            &v,
-            &n,
-            SkinWeights {
-                k: 2,
-                index,
-                weight,
-            },
-        )
-        .unwrap()
+        blended_rig(30, 0.1, 0.3)
     }
 
     fn root() -> RootPose {

@@ -310,34 +310,12 @@ fn check_link(j: usize, n: usize, array: &'static str, row: usize) -> Result<(),
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::testing::chain;
-    use crate::{Rig, SkinWeights};
+    use crate::Rig;
+    use crate::testing::blended_rig;
     use nalgebra::Rotation3;
 
-    /// Points around the chain of `testing::chain`, blended over its joints.
     fn rig() -> Rig {
-        let (mut v, mut n, mut index, mut weight) = (vec![], vec![], vec![], vec![]);
-        for s in 0..40 {
-            let x = s as f64 * 0.075;
-            v.push([x, 0.2 * (s as f64).sin(), 0.15 * (s as f64).cos()]);
-            n.push([0.1, (s as f64).sin(), (s as f64).cos()]);
-            let j = (x as u32).min(2);
-            let other = if j == 2 { 1 } else { j + 1 };
-            let w = 0.55 + 0.4 * x.fract();
-            index.extend([j, other]);
-            weight.extend([w, 1.0 - w]);
-        }
-        Rig::new(
-            chain(),
-            &v,
-            &n,
-            SkinWeights {
-                k: 2,
-                index,
-                weight,
-            },
-        )
-        .unwrap()
+        blended_rig(40, 0.075, 0.55)
     }
 
     /// Length of link 1 (along x), girth of link 2, a shift of link 2's joint, and a move

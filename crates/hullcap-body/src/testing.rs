@@ -1,7 +1,7 @@
 //! Small bodies for tests, shared with the crates that build on this one (enable the
 //! `testing` feature).
 
-use crate::{Dof, Skeleton};
+use crate::{Dof, Rig, Skeleton, SkinWeights};
 use nalgebra::Vector3;
 
 /// A three-link chain along +x: base at the origin, joints at x = 1 and x = 2; link 1
@@ -22,6 +22,35 @@ pub fn chain() -> Skeleton {
             dof(1, [0.0, 1.0, 0.0]),
             dof(2, [0.0, 0.0, 1.0]),
         ],
+    )
+    .unwrap()
+}
+
+/// `samples` points scattered around [`chain`] every `spacing` along x, each blended over
+/// the link it lies on and the next (`first` + up to 0.4 of the weight on its own), with
+/// normals pointing away from the chain's axis.
+#[allow(clippy::unwrap_used)] // valid by construction
+pub fn blended_rig(samples: usize, spacing: f64, first: f64) -> Rig {
+    let (mut v, mut n, mut index, mut weight) = (vec![], vec![], vec![], vec![]);
+    for s in 0..samples {
+        let (x, a) = (s as f64 * spacing, s as f64);
+        v.push([x, 0.2 * a.sin(), 0.2 * a.cos()]);
+        n.push([0.1, a.sin(), a.cos()]);
+        let j = (x as u32).min(2);
+        let other = if j == 2 { 1 } else { j + 1 };
+        let w = first + 0.4 * x.fract();
+        index.extend([j, other]);
+        weight.extend([w, 1.0 - w]);
+    }
+    Rig::new(
+        chain(),
+        &v,
+        &n,
+        SkinWeights {
+            k: 2,
+            index,
+            weight,
+        },
     )
     .unwrap()
 }
