@@ -1,15 +1,24 @@
-"""Type stubs of the Rust extension module ``hullcap._engine``."""
+"""Type stubs of the Rust extension module ``hullcap._engine``.
+
+Errors: bad input raises the class of its kind from :mod:`hullcap.errors` (``FitError``
+for targets, trees and fits, ``ModelError`` for meshes, rigs and shapes; each a
+``ValueError``), argument arrays of the wrong shape ``ValueError``, and a fault of the
+engine itself ``EngineError``."""
 
 from typing import Literal, final
 
 import numpy as np
 import numpy.typing as npt
 
+__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "Rig", "rasterize", "FitOptions",
+           "Target", "fit", "Shape", "fit_shape", "evaluate"]
+
 __version__: str
 
 ArrayLike3 = npt.ArrayLike
 """Anything NumPy turns into an (N, 3) array of real numbers."""
 
+@final
 class NormalKDTree:
     """Exact nearest neighbours among target points with normals (the paper's §3.2).
 
@@ -121,6 +130,7 @@ def link_distances(
     lengths (inf where the arc crosses the mesh), and the seconds spent on the
     segment-mesh tests, on building the edge graph and on Dijkstra (all links)."""
 
+@final
 class Rig:
     """A rigged mesh: link tree, rest mesh (body frame) and K-sparse skin weights."""
 
@@ -182,6 +192,7 @@ def rasterize(
         none) and int32 index of the triangle seen (-1 where none).
     """
 
+@final
 class FitOptions:
     """Options of ``fit`` and ``fit_shape``; defaults are the engine's own. Distances in
     metres, angles in radians. Fields can be set; ``replace(**changes)`` returns a checked

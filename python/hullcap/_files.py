@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import json
 import os
-import tomllib
 import tempfile
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -30,15 +30,15 @@ def atomic_write(path, data: bytes | Callable[[Path], None]) -> None:
         raise
 
 
-def read_document(path) -> dict:
-    """A JSON (``*.json``) or TOML (``*.toml``) file parsed; `ValueError` names the file
-    when it cannot be read or parsed."""
+def read_document(path, error: type[Exception] = ValueError) -> dict:
+    """A JSON (``*.json``) or TOML (``*.toml``) file parsed; `error` (one of
+    :mod:`hullcap.errors`) names the file when it cannot be read or parsed."""
     path = Path(path)
     toml = path.suffix.lower() == ".toml"
     try:
         text = path.read_text()
         return tomllib.loads(text) if toml else json.loads(text)
     except OSError as e:
-        raise ValueError(f"{path}: cannot read ({e.strerror})") from e
+        raise error(f"{path}: cannot read ({e.strerror})") from e
     except (json.JSONDecodeError, tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: not valid {'TOML' if toml else 'JSON'} ({e})") from e
+        raise error(f"{path}: not valid {'TOML' if toml else 'JSON'} ({e})") from e

@@ -14,6 +14,8 @@ from collections.abc import Sequence
 import numpy as np
 from skimage.measure import marching_cubes
 
+from hullcap.errors import ModelError
+
 Capsule = tuple[Sequence[float], Sequence[float], float]
 """A capsule: segment start, segment end (metres) and radius."""
 
@@ -54,7 +56,7 @@ def field_mesh(field, lo, hi, voxel: float):
         oriented (counter-clockwise seen from outside).
     """
     if not voxel > 0:
-        raise ValueError(f"voxel must be positive, got {voxel}")
+        raise ModelError(f"voxel must be positive, got {voxel}")
     lo, hi = np.asarray(lo, float) - 2 * voxel, np.asarray(hi, float) + 2 * voxel
     axes = [np.arange(lo[d], hi[d] + voxel, voxel) for d in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
@@ -72,7 +74,7 @@ def capsule_union_mesh(capsules: Sequence[Capsule], voxel: float = 0.006, pad: f
         ``(vertices, faces)`` as :func:`field_mesh` gives them.
     """
     if not capsules:
-        raise ValueError("capsule_union_mesh needs at least one capsule")
+        raise ModelError("capsule_union_mesh needs at least one capsule")
     ends = np.array([c[0] for c in capsules] + [c[1] for c in capsules], float)
     reach = max(c[2] for c in capsules) + pad
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from hullcap._engine import Rig, skin_weights
 from hullcap._files import atomic_write
+from hullcap.errors import ModelError
 from hullcap.links import DATA, LinkModel
 from hullcap.mesh import vertex_normals
 from hullcap.shape import ShapeBasis
@@ -71,7 +72,7 @@ class BodyModel:
         self._vertices = _array(vertices, "vertices", np.float64, (-1, 3))
         self._faces = _array(faces, "faces", np.int64, (-1, 3))
         if self._faces.size and (self._faces.min() < 0 or self._faces.max() >= len(self._vertices)):
-            raise ValueError(f"faces refer to vertices outside 0..{len(self._vertices) - 1}")
+            raise ModelError(f"faces refer to vertices outside 0..{len(self._vertices) - 1}")
         self._normals = vertex_normals(self._vertices, self._faces)
         self._b, self._k = float(b), int(k)
         if skin is None:
@@ -239,9 +240,9 @@ class BodyModel:
             return np.zeros(self.n_dofs)
         theta = np.asarray(theta, dtype=np.float64)
         if theta.shape != (self.n_dofs,):
-            raise ValueError(f"theta must have {self.n_dofs} joint angles, got shape {theta.shape}")
+            raise ModelError(f"theta must have {self.n_dofs} joint angles, got shape {theta.shape}")
         if not np.isfinite(theta).all():
-            raise ValueError(f"theta holds NaN or inf at {np.flatnonzero(~np.isfinite(theta)).tolist()}")
+            raise ModelError(f"theta holds NaN or inf at {np.flatnonzero(~np.isfinite(theta)).tolist()}")
         return theta
 
     # -- files --------------------------------------------------------------------------
@@ -263,7 +264,7 @@ class BodyModel:
         """Load a model saved by :meth:`save`; errors name the file at fault."""
         path = Path(path)
         if not path.is_dir():
-            raise ValueError(f"{path}: not a body model folder (expected links.json and mesh.npz)")
+            raise ModelError(f"{path}: not a body model folder (expected links.json and mesh.npz)")
         links = LinkModel.load(path / "links.json")
         mesh = path / "mesh.npz"
         try:
@@ -271,13 +272,13 @@ class BodyModel:
                 arrays = {k: z[k] for k in ("vertices", "faces", "skin_index", "skin_weight",
                                             "skin_b", "skin_k")}
         except (OSError, KeyError, ValueError) as e:
-            raise ValueError(f"{mesh}: not a hullcap body mesh ({e})") from e
+            raise ModelError(f"{mesh}: not a hullcap body mesh ({e})") from e
         try:
             return cls(links, arrays["vertices"], arrays["faces"],
                        skin=(arrays["skin_index"], arrays["skin_weight"]),
                        b=float(arrays["skin_b"]), k=int(arrays["skin_k"]))
         except ValueError as e:
-            raise ValueError(f"{mesh}: {e}") from e
+            raise ModelError(f"{mesh}: {e}") from e
 
 
 @functools.lru_cache(maxsize=4)
@@ -300,9 +301,9 @@ def _array(value, name, dtype, shape) -> np.ndarray:
     try:
         a = np.ascontiguousarray(value, dtype=dtype)
     except (TypeError, ValueError) as e:
-        raise ValueError(f"{name}: not an array of numbers ({e})") from e
+        raise ModelError(f"{name}: not an array of numbers ({e})") from e
     if a.ndim != len(shape) or any(s not in (-1, d) for s, d in zip(shape, a.shape)):
-        raise ValueError(f"{name} must have shape {tuple('N' if s < 0 else s for s in shape)}, got {a.shape}")
+        raise ModelError(f"{name} must have shape {tuple('N' if s < 0 else s for s in shape)}, got {a.shape}")
     if a.dtype.kind == "f" and not np.isfinite(a).all():
-        raise ValueError(f"{name} holds NaN or inf")
+        raise ModelError(f"{name} holds NaN or inf")
     return a

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from hullcap._files import atomic_write, read_document
+from hullcap.errors import CalibrationError
 
 __all__ = ["Camera", "Cameras", "ring"]
 
@@ -50,27 +51,27 @@ class Camera:
             try:
                 value = np.array(getattr(self, attr), dtype=np.float64)
             except (TypeError, ValueError):
-                raise ValueError(f"{where}: {attr} is not numeric") from None
+                raise CalibrationError(f"{where}: {attr} is not numeric") from None
             if attr == "dist" and value.ndim <= 1 and value.size < 5:  # [k1 k2 p1 p2]: k3 = 0
                 value = np.concatenate([value.ravel(), np.zeros(5 - value.size)])
             if value.shape != shape or not np.isfinite(value).all():
-                raise ValueError(f"{where}: {attr} must be {shape} finite numbers, got shape {value.shape}")
+                raise CalibrationError(f"{where}: {attr} must be {shape} finite numbers, got shape {value.shape}")
             value.setflags(write=False)
             object.__setattr__(self, attr, value)
         if not isinstance(self.name, str) or not self.name or "/" in self.name:
-            raise ValueError(f"{where}: name must be a non-empty string without '/'")
+            raise CalibrationError(f"{where}: name must be a non-empty string without '/'")
         if not (int(self.width) == self.width > 0 and int(self.height) == self.height > 0):
-            raise ValueError(f"{where}: image size must be positive integers, got {self.width}×{self.height}")
+            raise CalibrationError(f"{where}: image size must be positive integers, got {self.width}×{self.height}")
         object.__setattr__(self, "width", int(self.width))
         object.__setattr__(self, "height", int(self.height))
         K = self.K
         if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
-            raise ValueError(f"{where}: K must be upper-triangular with K[2,2] = 1, got {K.tolist()}")
+            raise CalibrationError(f"{where}: K must be upper-triangular with K[2,2] = 1, got {K.tolist()}")
         if not (K[0, 0] > 0 and K[1, 1] > 0):
-            raise ValueError(f"{where}: K's focal lengths must be positive, got {K[0, 0]}, {K[1, 1]}")
+            raise CalibrationError(f"{where}: K's focal lengths must be positive, got {K[0, 0]}, {K[1, 1]}")
         R = self.R
         if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or not np.linalg.det(R) > 0:
-            raise ValueError(f"{where}: R is not a rotation (det = {np.linalg.det(R):.4g}, "
+            raise CalibrationError(f"{where}: R is not a rotation (det = {np.linalg.det(R):.4g}, "
                              f"|RRᵀ − I| = {np.abs(R @ R.T - np.eye(3)).max():.2g})")
 
     @property
@@ -123,9 +124,9 @@ class Cameras(Sequence[Camera]):
         names = [c.name for c in self._cameras]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
-            raise ValueError(f"camera names must be unique; repeated: {sorted(dup)}")
+            raise CalibrationError(f"camera names must be unique; repeated: {sorted(dup)}")
         if not self._cameras:
-            raise ValueError("no cameras")
+            raise CalibrationError("no cameras")
 
     def __len__(self) -> int:
         return len(self._cameras)
@@ -154,25 +155,25 @@ class Cameras(Sequence[Camera]):
     def load(cls, path) -> Cameras:
         """Read ``cameras.json`` (docs/formats.md); errors name the file, camera and field."""
         path = Path(path)
-        spec = read_document(path)
+        spec = read_document(path, CalibrationError)
         if spec.get("units", "m") != "m":
-            raise ValueError(f"{path}: units must be 'm', got {spec.get('units')!r}")
+            raise CalibrationError(f"{path}: units must be 'm', got {spec.get('units')!r}")
         if not isinstance(spec.get("cameras"), list):
-            raise ValueError(f"{path}: needs a 'cameras' list")
+            raise CalibrationError(f"{path}: needs a 'cameras' list")
         cams = []
         for i, c in enumerate(spec["cameras"]):
             try:
                 missing = [k for k in ("name", "width", "height", "K", "R", "t") if k not in c]
                 if missing:
-                    raise ValueError(f"camera {c.get('name', f'#{i}')!r}: missing {missing}")
+                    raise CalibrationError(f"camera {c.get('name', f'#{i}')!r}: missing {missing}")
                 cams.append(Camera(c["name"], c["width"], c["height"], c["K"],
                                    c.get("dist", np.zeros(5)), c["R"], c["t"]))
             except ValueError as e:
-                raise ValueError(f"{path}: {e}") from None
+                raise CalibrationError(f"{path}: {e}") from None
         try:
             return cls(cams)
         except ValueError as e:
-            raise ValueError(f"{path}: {e}") from None
+            raise CalibrationError(f"{path}: {e}") from None
 
     def save(self, path) -> None:
         """Write ``cameras.json`` (atomically)."""
@@ -216,49 +217,49 @@ class Cameras(Sequence[Camera]):
         (Rodrigues, world → camera) and ``translation`` (metres). `up` as in
         :meth:`from_easymocap`."""
         path = Path(path)
-        doc = read_document(path)
+        doc = read_document(path, CalibrationError)
         cams = []
         for key, c in doc.items():
             if key == "metadata" or not isinstance(c, dict):
                 continue
             try:
                 if c.get("fisheye"):
-                    raise ValueError("fisheye cameras are not supported")
+                    raise CalibrationError("fisheye cameras are not supported")
                 R = cv2.Rodrigues(np.asarray(c["rotation"], float).reshape(3, 1))[0]
                 w, h = c["size"]
                 cams.append(_with_up(str(c.get("name", key)), int(w), int(h), c["matrix"],
                                      c.get("distortions", []), R, c["translation"], up))
             except (KeyError, TypeError, ValueError) as e:
-                raise ValueError(f"{path}: camera [{key}]: {e!r}") from None
+                raise CalibrationError(f"{path}: camera [{key}]: {e!r}") from None
         return cls(cams)
 
 
 def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
     if up not in ("z", "y"):
-        raise ValueError(f"up must be 'z' or 'y', got {up!r}")
+        raise CalibrationError(f"up must be 'z' or 'y', got {up!r}")
     R = np.asarray(R, float)
     if up == "y":
         R = R @ _Y_UP_TO_Z_UP.T  # x_cam = R·X_file = R·Mᵀ·X_ours
     dist = np.ravel(np.asarray(dist if dist is not None else [], float))
     if dist.size > 5:
-        raise ValueError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] are supported")
+        raise CalibrationError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] are supported")
     return Camera(name, w, h, K, dist, R, t)  # Camera pads [k1 k2 p1 p2] with k3 = 0
 
 
 def _storage(path) -> cv2.FileStorage:
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"{path}: no such file")
+        raise CalibrationError(f"{path}: no such file")
     fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
     if not fs.isOpened():
-        raise ValueError(f"{path}: not an OpenCV FileStorage file")
+        raise CalibrationError(f"{path}: not an OpenCV FileStorage file")
     return fs
 
 
 def _yml_names(fs, path) -> list[str]:
     node = fs.getNode("names")
     if node.empty():
-        raise ValueError(f"{path}: no 'names' list")
+        raise CalibrationError(f"{path}: no 'names' list")
     return [node.at(i).string() for i in range(node.size())]
 
 
@@ -266,11 +267,11 @@ def _yml_mat(fs, key, path, required=True):
     node = fs.getNode(key)
     if node.empty():
         if required:
-            raise ValueError(f"{path}: no '{key}'")
+            raise CalibrationError(f"{path}: no '{key}'")
         return None
     m = node.mat()
     if m is None:
-        raise ValueError(f"{path}: '{key}' is not a matrix")
+        raise CalibrationError(f"{path}: '{key}' is not a matrix")
     return np.asarray(m, float)
 
 
@@ -279,7 +280,7 @@ def _yml_size(fs, name, image_size, path):
     if not h.empty() and not w.empty():
         return int(w.real()), int(h.real())
     if image_size is None:
-        raise ValueError(f"{path}: no H_{name}/W_{name}; pass image_size=(width, height)")
+        raise CalibrationError(f"{path}: no H_{name}/W_{name}; pass image_size=(width, height)")
     return image_size
 
 
@@ -290,7 +291,7 @@ def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
     z /= np.linalg.norm(z)
     x = np.cross(z, np.asarray(up, float))
     if np.linalg.norm(x) < 1e-9:
-        raise ValueError("look_at: the view direction is parallel to up")
+        raise CalibrationError("look_at: the view direction is parallel to up")
     x /= np.linalg.norm(x)
     y = np.cross(z, x)
     R = np.stack([x, y, z])
@@ -306,7 +307,7 @@ def ring(n: int, radius: float = 4.0, height: float = 1.6, target=(0.0, 0.0, 1.0
     elevation too. Horizontal field of view `fov_deg`; no distortion.
     """
     if n < 1:
-        raise ValueError(f"a ring needs at least one camera, got {n}")
+        raise CalibrationError(f"a ring needs at least one camera, got {n}")
     f = 0.5 * width / np.tan(np.radians(fov_deg) / 2)
     K = [[f, 0, (width - 1) / 2], [0, f, (height_px - 1) / 2], [0, 0, 1]]
     cams = []

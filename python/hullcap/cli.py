@@ -8,6 +8,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from hullcap.errors import HullcapError
+
 __all__ = ["main"]
 
 
@@ -199,7 +201,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.run(args)
-    except (ValueError, OSError) as e:
+    except (HullcapError, ValueError, OSError) as e:
         print(f"hullcap: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

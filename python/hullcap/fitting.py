@@ -10,6 +10,7 @@ import numpy as np
 from hullcap import _engine
 from hullcap._engine import FitOptions
 from hullcap.body import BodyModel
+from hullcap.errors import FitError
 from hullcap.mesh import Surface
 
 __all__ = ["FitOptions", "FitResult", "PoseParameters", "fit", "make_target", "yaw_rotation"]
@@ -110,7 +111,7 @@ def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions |
     options = FitOptions() if options is None else options
     theta = np.asarray(initial.theta, float)
     if theta.shape != (model.n_dofs,):
-        raise ValueError(f"initial.theta must have {model.n_dofs} angles, got shape {theta.shape}")
+        raise FitError(f"initial.theta must have {model.n_dofs} angles, got shape {theta.shape}")
     points = None if model_points is None else np.asarray(model_points, np.int64).tolist()
     groups = [list(g) for g in model.link_model.hierarchy]
     (th, R, t), stats = _engine.fit(model._rig, target, theta.tolist(), np.asarray(initial.root_rotation, float),

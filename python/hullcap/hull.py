@@ -23,6 +23,7 @@ from scipy import ndimage
 from skimage.measure import marching_cubes
 
 from hullcap.cameras import Cameras
+from hullcap.errors import CalibrationError, HullError
 from hullcap.mesh import Surface
 
 __all__ = ["visual_hull", "capture_volume", "HullReport"]
@@ -108,27 +109,27 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     """
     report = report if report is not None else HullReport()
     if len(masks) != len(cameras):
-        raise ValueError(f"{len(masks)} masks for {len(cameras)} cameras")
+        raise HullError(f"{len(masks)} masks for {len(cameras)} cameras")
     if not voxel_size > 0:
-        raise ValueError(f"voxel_size must be positive, got {voxel_size}")
+        raise HullError(f"voxel_size must be positive, got {voxel_size}")
     if priors is not None and len(priors) != len(cameras):
-        raise ValueError(f"{len(priors)} priors for {len(cameras)} cameras")
+        raise HullError(f"{len(priors)} priors for {len(cameras)} cameras")
     if tolerance < 0:
-        raise ValueError(f"tolerance must be >= 0, got {tolerance}")
+        raise HullError(f"tolerance must be >= 0, got {tolerance}")
     views = []
     for i, (cam, m) in enumerate(zip(cameras, masks)):
         m = np.asarray(m)
         if m.shape != (cam.height, cam.width):
-            raise ValueError(f"camera {cam.name!r}: mask is {m.shape[::-1]} pixels, the camera {cam.width}×{cam.height}")
+            raise HullError(f"camera {cam.name!r}: mask is {m.shape[::-1]} pixels, the camera {cam.width}×{cam.height}")
         if not m.any():
             report.skipped[cam.name] = "empty mask"
             continue
         prior = None if priors is None else np.asarray(priors[i])
         if prior is not None and prior.shape != m.shape:
-            raise ValueError(f"camera {cam.name!r}: prior is {prior.shape[::-1]} pixels, the mask {m.shape[::-1]}")
+            raise HullError(f"camera {cam.name!r}: prior is {prior.shape[::-1]} pixels, the mask {m.shape[::-1]}")
         views.append(_View(cam, m, prior))
     if not views:
-        raise ValueError("every mask is empty: nothing to carve")
+        raise HullError("every mask is empty: nothing to carve")
     if report.skipped:
         warnings.warn(f"visual hull: views left out: {report.skipped}", stacklevel=2)
     lo, hi = (np.asarray(b, float) for b in (bounds if bounds is not None else capture_volume(cameras)))
@@ -137,7 +138,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views, tolerance, priors is not None)
     report.carve_seconds = time.perf_counter() - t0
     if not occupancy.any():
-        raise ValueError("the visual hull is empty: the silhouettes do not agree on any point of the volume")
+        raise HullError("the visual hull is empty: the silhouettes do not agree on any point of the volume")
     t0 = time.perf_counter()
     surface = _mesh(occupancy, origin, voxel_size, smooth)
     report.mesh_seconds = time.perf_counter() - t0
@@ -227,6 +228,6 @@ def capture_volume(cameras: Cameras, floor: float = 0.0, ceiling: float = 2.4, s
         px, z = cam.project(pts)
         seen &= (z > 0) & (px[:, 0] >= 0) & (px[:, 0] <= cam.width - 1) & (px[:, 1] >= 0) & (px[:, 1] <= cam.height - 1)
     if not seen.any():
-        raise ValueError("the cameras see no common volume between the floor and the ceiling; pass bounds")
+        raise CalibrationError("the cameras see no common volume between the floor and the ceiling; pass bounds")
     p = pts[seen]
     return p.min(0) - step, p.max(0) + step

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write, read_document
+from hullcap.errors import ModelError
 
 __all__ = ["LinkModel", "STANDARD_LINKS"]
 
@@ -70,7 +71,7 @@ class LinkModel:
     @classmethod
     def load(cls, path) -> LinkModel:
         """Read and validate a link model file; `ValueError` names the file and the entry."""
-        return cls.from_dict(read_document(path), source=str(path))
+        return cls.from_dict(read_document(path, ModelError), source=str(path))
 
     @classmethod
     def from_dict(cls, spec: dict, source: str = "<memory>") -> LinkModel:
@@ -126,7 +127,7 @@ class LinkModel:
 
 def _parse(spec: dict, source: str) -> LinkModel:
     def fail(msg):
-        raise ValueError(f"{source}: {msg}")
+        raise ModelError(f"{source}: {msg}")
 
     def vec(value, where, shape=(3,)):
         try:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
+from hullcap.errors import ModelError
 
 __all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "read_mesh", "write_mesh"]
 
@@ -121,18 +122,18 @@ def write_mesh(path, vertices, faces, normals=None) -> None:
     vertices = _rows(vertices, "vertices", float)
     faces = _rows(faces, "faces", np.int64)
     if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
-        raise ValueError(f"{path}: faces refer to vertices outside 0..{len(vertices) - 1}")
+        raise ModelError(f"{path}: faces refer to vertices outside 0..{len(vertices) - 1}")
     if normals is not None:
         normals = _rows(normals, "normals", float)
         if len(normals) != len(vertices):
-            raise ValueError(f"{path}: {len(normals)} normals for {len(vertices)} vertices")
+            raise ModelError(f"{path}: {len(normals)} normals for {len(vertices)} vertices")
     suffix = path.suffix.lower()
     if suffix == ".ply":
         data = _ply_bytes(vertices, faces, normals)
     elif suffix == ".obj":
         data = _obj_text(vertices, faces, normals).encode()
     else:
-        raise ValueError(f"{path}: unknown mesh format {suffix!r} (use .ply or .obj)")
+        raise ModelError(f"{path}: unknown mesh format {suffix!r} (use .ply or .obj)")
     atomic_write(path, data)
 
 
@@ -144,7 +145,7 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     try:
         raw = path.read_bytes()
     except OSError as e:
-        raise ValueError(f"{path}: cannot read ({e.strerror})") from e
+        raise ModelError(f"{path}: cannot read ({e.strerror})") from e
     suffix = path.suffix.lower()
     try:
         if suffix == ".ply":
@@ -152,17 +153,17 @@ def read_mesh(path) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         if suffix == ".obj":
             return _parse_obj(raw.decode())
     except (ValueError, IndexError, struct.error, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: not a readable {suffix[1:].upper()} mesh ({e})") from e
-    raise ValueError(f"{path}: unknown mesh format {suffix!r} (use .ply or .obj)")
+        raise ModelError(f"{path}: not a readable {suffix[1:].upper()} mesh ({e})") from e
+    raise ModelError(f"{path}: unknown mesh format {suffix!r} (use .ply or .obj)")
 
 
 def _rows(a, name, dtype):
     a = np.asarray(a)
     if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
+        raise ModelError(f"{name} must have shape (N, 3), got {a.shape}")
     a = a.astype(dtype)
     if dtype is float and not np.isfinite(a).all():
-        raise ValueError(f"{name} holds NaN or inf")
+        raise ModelError(f"{name} holds NaN or inf")
     return a
 
 
@@ -189,7 +190,7 @@ _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short":
 def _parse_ply(raw: bytes):
     end = raw.find(b"end_header")
     if not raw.startswith(b"ply") or end < 0:
-        raise ValueError("no PLY header")
+        raise ModelError("no PLY header")
     body_start = raw.index(b"\n", end) + 1
     lines = raw[:end].decode("ascii").splitlines()
     fmt = next(line.split()[1] for line in lines if line.startswith("format"))
@@ -227,7 +228,7 @@ def _ply_elements(elements, ascii_tokens=None, binary=None):
                     normals = np.stack([cols["nx"], cols["ny"], cols["nz"]], 1)
         else:
             if len(props) != 1:
-                raise ValueError(f"element {name!r}: only a lone list property is supported")
+                raise ModelError(f"element {name!r}: only a lone list property is supported")
             _, count_type, index_type, _ = props[0]
             polygons = []
             for _ in range(count):
@@ -244,7 +245,7 @@ def _ply_elements(elements, ascii_tokens=None, binary=None):
             if name == "face":
                 faces = _fans(polygons)
     if vertices is None or faces is None:
-        raise ValueError("no vertex or face element")
+        raise ModelError("no vertex or face element")
     return vertices, faces, normals
 
 
@@ -278,7 +279,7 @@ def _parse_obj(text: str):
             idx = [int(p.split("/")[0]) for p in parts[1:]]
             polygons.append([i - 1 if i > 0 else len(vertices) + i for i in idx])
     if not vertices or not polygons:
-        raise ValueError("no vertices or faces")
+        raise ModelError("no vertices or faces")
     v = np.array(vertices, dtype=np.float64)
     n = np.array(normals, dtype=np.float64) if len(normals) == len(vertices) else None
     return v, _fans(polygons), n

@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hullcap.errors import OptionsError
+
 __all__ = ["MOTIONS", "motion_poses"]
 
 
@@ -95,13 +97,13 @@ def motion_poses(name: str, dof_names, fps: float, rest_height: float):
     root_translation (F, 3))``; the root stands at ``(0, 0, rest_height)`` plus the
     keyframes' offsets."""
     if name not in MOTIONS:
-        raise ValueError(f"unknown motion {name!r}; motions: {sorted(MOTIONS)}")
+        raise OptionsError(f"unknown motion {name!r}; motions: {sorted(MOTIONS)}")
     keys = MOTIONS[name]
     index = {n: i for i, n in enumerate(dof_names)}
     for k in keys:
         for dof in k.angles:
             if dof not in index:
-                raise ValueError(f"motion {name!r} names unknown DOF {dof!r}")
+                raise OptionsError(f"motion {name!r} names unknown DOF {dof!r}")
     times = np.cumsum([k.seconds for k in keys])
     values = np.zeros((len(keys), len(dof_names) + 4))
     for i, k in enumerate(keys):

@@ -23,6 +23,7 @@ import numpy as np
 from hullcap import _engine
 from hullcap._engine import FitOptions
 from hullcap.body import BodyModel
+from hullcap.errors import OptionsError
 from hullcap.fitting import FitResult, PoseParameters, fit, yaw_rotation
 
 __all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS", "chain_links", "chain_quality", "quality"]
@@ -68,7 +69,7 @@ class SearchOptions:
 
     def __post_init__(self):
         if min(self.headings, self.keep, self.chain_samples, self.recent) < 1:
-            raise ValueError("SearchOptions: headings, keep, chain_samples and recent must be at least 1")
+            raise OptionsError("SearchOptions: headings, keep, chain_samples and recent must be at least 1")
 
 
 def quality(stats) -> float:

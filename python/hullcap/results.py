@@ -20,6 +20,7 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
+from hullcap.errors import OptionsError, ResultsError
 from hullcap.export.bvh import write_bvh
 from hullcap.export.gltf import write_glb
 from hullcap.fitting import FitResult
@@ -176,7 +177,7 @@ def smooth_joints(joints: np.ndarray, fps: float, cutoff_hz: float, order: int =
     from scipy.signal import butter, filtfilt
 
     if not 0 < cutoff_hz < fps / 2:
-        raise ValueError(f"the cut-off must lie between 0 and half the frame rate ({fps / 2:g} Hz), got {cutoff_hz}")
+        raise OptionsError(f"the cut-off must lie between 0 and half the frame rate ({fps / 2:g} Hz), got {cutoff_hz}")
     joints = np.asarray(joints, float)
     b, a = butter(order, cutoff_hz / (fps / 2))
     out = joints.copy()
@@ -233,8 +234,8 @@ def load_result(out) -> TrackingResult:
         with np.load(path) as z:
             a = {k: z[k] for k in z.files}
     except (OSError, ValueError) as e:
-        raise ValueError(f"{path}: not a readable pose.npz ({e})") from e
+        raise ResultsError(f"{path}: not a readable pose.npz ({e})") from e
     missing = {"root_translation", "root_rotation", "theta", "failed", "iterations", "fps"} - a.keys()
     if missing:
-        raise ValueError(f"{path}: missing {sorted(missing)}")
+        raise ResultsError(f"{path}: missing {sorted(missing)}")
     return TrackingResult.from_arrays(model, a)

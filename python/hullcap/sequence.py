@@ -14,6 +14,7 @@ import numpy as np
 
 from hullcap._files import read_document
 from hullcap.cameras import Cameras
+from hullcap.errors import SequenceError
 
 __all__ = ["Sequence"]
 
@@ -25,19 +26,19 @@ class Sequence:
     def __init__(self, path):
         self.path = Path(path)
         if not self.path.is_dir():
-            raise ValueError(f"{self.path}: no such sequence folder")
+            raise SequenceError(f"{self.path}: no such sequence folder")
         if not (self.path / "cameras.json").is_file():
-            raise ValueError(f"{self.path}: missing cameras.json")
+            raise SequenceError(f"{self.path}: missing cameras.json")
         self.cameras = Cameras.load(self.path / "cameras.json")
         meta_path = self.path / "meta.json"
-        meta = read_document(meta_path)
+        meta = read_document(meta_path, SequenceError)
         try:
             self.fps = float(meta["fps"])
             self.n_frames = int(meta["frames"])
         except (KeyError, TypeError, ValueError) as e:
-            raise ValueError(f"{meta_path}: needs {{\"fps\": …, \"frames\": …}} ({e!r})") from e
+            raise SequenceError(f"{meta_path}: needs {{\"fps\": …, \"frames\": …}} ({e!r})") from e
         if not (self.fps > 0 and self.n_frames > 0):
-            raise ValueError(f"{meta_path}: fps and frames must be positive")
+            raise SequenceError(f"{meta_path}: fps and frames must be positive")
         self._videos: dict[str, cv2.VideoCapture] = {}
         self._video_pos: dict[str, int] = {}
         for cam in self.cameras:
@@ -45,7 +46,7 @@ class Sequence:
             has_video = (self.path / "videos" / f"{cam.name}.mp4").is_file()
             has_masks = (self.path / "silhouettes" / cam.name).is_dir()
             if not (has_frames or has_video or has_masks):
-                raise ValueError(f"{self.path}: camera {cam.name!r} has no frames/{cam.name}/, "
+                raise SequenceError(f"{self.path}: camera {cam.name!r} has no frames/{cam.name}/, "
                                  f"videos/{cam.name}.mp4 or silhouettes/{cam.name}/")
             if has_masks:
                 self._check_mask_size(cam)
@@ -59,7 +60,7 @@ class Sequence:
             return
         img = cv2.imread(str(first), cv2.IMREAD_GRAYSCALE)
         if img is not None and img.shape != (cam.height, cam.width):
-            raise ValueError(f"{first}: mask is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is "
+            raise SequenceError(f"{first}: mask is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is "
                              f"calibrated for {cam.width}×{cam.height}: silhouettes must have the size of "
                              f"the camera's images")
 
@@ -107,12 +108,12 @@ class Sequence:
 
     def _read(self, path: Path, cam, colour: bool) -> np.ndarray:
         if not path.is_file():
-            raise ValueError(f"{path}: missing (camera {cam.name!r})")
+            raise SequenceError(f"{path}: missing (camera {cam.name!r})")
         img = cv2.imread(str(path), cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
         if img is None:
-            raise ValueError(f"{path}: not a readable image (camera {cam.name!r})")
+            raise SequenceError(f"{path}: not a readable image (camera {cam.name!r})")
         if img.shape[:2] != (cam.height, cam.width):
-            raise ValueError(f"{path}: image is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} "
+            raise SequenceError(f"{path}: image is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} "
                              f"is calibrated for {cam.width}×{cam.height}")
         return img
 
@@ -122,17 +123,17 @@ class Sequence:
         if cap is None:
             cap = cv2.VideoCapture(str(path))
             if not cap.isOpened():
-                raise ValueError(f"{path}: not a readable video (camera {cam.name!r})")
+                raise SequenceError(f"{path}: not a readable video (camera {cam.name!r})")
             self._videos[cam.name] = cap
             self._video_pos[cam.name] = 0
         if self._video_pos[cam.name] != frame:
             cap.set(cv2.CAP_PROP_POS_FRAMES, frame)
         ok, img = cap.read()
         if not ok:
-            raise ValueError(f"{path}: no frame {frame} (camera {cam.name!r})")
+            raise SequenceError(f"{path}: no frame {frame} (camera {cam.name!r})")
         self._video_pos[cam.name] = frame + 1
         if img.shape[:2] != (cam.height, cam.width):
-            raise ValueError(f"{path}: video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} "
+            raise SequenceError(f"{path}: video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} "
                              f"is calibrated for {cam.width}×{cam.height}")
         return img
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hullcap import _engine
+from hullcap.errors import ModelError
 
 __all__ = ["ShapeParameter", "ShapeBasis"]
 
@@ -54,7 +55,7 @@ class ShapeBasis:
         self.parameters = tuple(parameters)
         names = [p.name for p in self.parameters]
         if len(set(names)) != len(names):
-            raise ValueError(f"shape parameter names repeat: {names}")
+            raise ModelError(f"shape parameter names repeat: {names}")
 
     def __len__(self) -> int:
         return len(self.parameters)
@@ -82,9 +83,9 @@ class ShapeBasis:
         for kind, table in (("length", lengths), ("girth", girths)):
             for name, scale in table.items():
                 if name not in links.names:
-                    raise ValueError(f"scaling names unknown link {name!r}; links are {list(links.names)}")
+                    raise ModelError(f"scaling names unknown link {name!r}; links are {list(links.names)}")
                 if not (np.isfinite(scale) and 0.2 <= scale <= 5.0):
-                    raise ValueError(f"{kind} scale of {name!r} must be in [0.2, 5], got {scale}")
+                    raise ModelError(f"{kind} scale of {name!r} must be in [0.2, 5], got {scale}")
                 j = links.names.index(name)
                 along, across = _projectors(links, j)
                 params.append(ShapeParameter(f"{kind}:{name}", ((j, along if kind == "length" else across),)))

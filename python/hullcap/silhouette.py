@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from hullcap.errors import OptionsError, SequenceError
+
 __all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask"]
 
 
@@ -161,7 +163,7 @@ def background_model(backgrounds, method: str = "statistical", **options):
         return StatisticalBackground(backgrounds, **options)
     if method == "mog2":
         return Mog2Background(backgrounds, **options)
-    raise ValueError(f"unknown background subtraction method {method!r} (statistical, mog2)")
+    raise OptionsError(f"unknown background subtraction method {method!r} (statistical, mog2)")
 
 
 def clean_mask(mask: np.ndarray, min_blob: int = 200, max_hole: int | None = 2000) -> np.ndarray:
@@ -206,12 +208,12 @@ def _stack(backgrounds) -> np.ndarray:
         backgrounds = [backgrounds]
     stack = np.asarray([np.asarray(b) for b in backgrounds])
     if stack.ndim != 4 or stack.shape[-1] != 3 or len(stack) == 0:
-        raise ValueError(f"background images must be (H, W, 3) colour images, got {stack.shape}")
+        raise SequenceError(f"background images must be (H, W, 3) colour images, got {stack.shape}")
     return stack
 
 
 def _image(image, shape) -> np.ndarray:
     image = np.asarray(image)
     if image.shape[:2] != tuple(shape) or image.ndim != 3 or image.shape[2] != 3:
-        raise ValueError(f"image of shape {image.shape} does not match the background {tuple(shape) + (3,)}")
+        raise SequenceError(f"image of shape {image.shape} does not match the background {tuple(shape) + (3,)}")
     return image

@@ -20,6 +20,7 @@ import numpy as np
 from hullcap import _engine
 from hullcap._engine import FitOptions, NormalKDTree
 from hullcap.body import BodyModel
+from hullcap.errors import FitError, OptionsError
 from hullcap.fitting import FitResult, PoseParameters, fit, make_target
 from hullcap.mesh import Surface
 from hullcap.shape import ShapeBasis, ShapeParameter
@@ -85,12 +86,12 @@ class SubjectOptions:
 
     def __post_init__(self):
         if self.rest_mesh not in ("template", "hull"):
-            raise ValueError(f"rest_mesh must be 'template' or 'hull', got {self.rest_mesh!r}")
+            raise OptionsError(f"rest_mesh must be 'template' or 'hull', got {self.rest_mesh!r}")
         for name in ("length_sigma", "girth_sigma", "shift_sigma", "centre_sigma", "scale_sigma"):
             if not getattr(self, name) > 0:
-                raise ValueError(f"SubjectOptions.{name} must be positive, got {getattr(self, name)}")
+                raise OptionsError(f"SubjectOptions.{name} must be positive, got {getattr(self, name)}")
         if not (self.prior_distance >= 0 and self.headings >= 1 and self.keep >= 1 and self.iterations >= 1):
-            raise ValueError("SubjectOptions: prior_distance must be >= 0, headings, keep, iterations >= 1")
+            raise OptionsError("SubjectOptions: prior_distance must be >= 0, headings, keep, iterations >= 1")
 
     def basis(self, links) -> ShapeBasis:
         """The shape parameters: an overall scale, then :meth:`ShapeBasis.standard`."""
@@ -139,13 +140,13 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     options = options or SubjectOptions()
     hulls = [hulls] if isinstance(hulls, Surface) else list(hulls)
     if not hulls:
-        raise ValueError("build_subject needs at least one hull")
+        raise FitError("build_subject needs at least one hull")
     if poses is not None and len(poses) != len(hulls):
-        raise ValueError(f"{len(poses)} starting poses for {len(hulls)} hulls")
+        raise FitError(f"{len(poses)} starting poses for {len(hulls)} hulls")
     template = template or BodyModel.template()
     height = _height(hulls[0].vertices)
     if not options.stature[0] <= height <= options.stature[1]:
-        raise ValueError(f"the first hull is {height:.2f} m tall: not a person in the calibration pose "
+        raise FitError(f"the first hull is {height:.2f} m tall: not a person in the calibration pose "
                          f"(SubjectOptions.stature is {options.stature[0]}-{options.stature[1]} m)")
     basis = options.basis(template.link_model)
     shape0 = np.zeros(len(basis))
@@ -202,7 +203,7 @@ def _limited(model: BodyModel, limits: dict) -> BodyModel:
         names = [name] if name[:2] in ("l_", "r_") else [f"l_{name}", f"r_{name}", name]
         hits = [links.dof_names.index(n) for n in names if n in links.dof_names]
         if not hits:
-            raise ValueError(f"calibration_limits names unknown DOF {name!r}")
+            raise OptionsError(f"calibration_limits names unknown DOF {name!r}")
         new[hits] = np.radians([lo, hi])
     b, k = model.skin_parameters
     return BodyModel(replace(links, dof_limits=new), model.vertices, model.faces, skin=model.skin, b=b, k=k)

@@ -20,6 +20,7 @@ import numpy as np
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.cameras import Cameras, ring
+from hullcap.errors import OptionsError, SequenceError
 from hullcap.mesh import face_normals
 from hullcap.motions import motion_poses
 from hullcap.progress import progress
@@ -156,7 +157,7 @@ def render_sequence(out, cameras: Cameras, frames: Iterable[np.ndarray], faces, 
                 _imwrite(out / "silhouettes" / cam.name / name, mask)
         count += 1
     if count != n_frames:
-        raise ValueError(f"frames yielded {count} meshes, n_frames says {n_frames}")
+        raise SequenceError(f"frames yielded {count} meshes, n_frames says {n_frames}")
     if vertices_out is not None:
         vertices_out.flush()
     np.save(out / "truth" / "faces.npy", faces.astype(np.int32))
@@ -186,7 +187,7 @@ def synthesize(out, motion: str = "demo", cameras: int | Cameras = 8, subject: s
         The sequence folder, with ``truth/`` holding the true joints, pose and vertices.
     """
     if subject not in SUBJECTS:
-        raise ValueError(f"unknown subject {subject!r}; subjects: {sorted(SUBJECTS)}")
+        raise OptionsError(f"unknown subject {subject!r}; subjects: {sorted(SUBJECTS)}")
     if isinstance(cameras, int):
         cameras = ring(cameras, width=width, height_px=height)
     model = BodyModel.template()

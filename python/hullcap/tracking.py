@@ -33,12 +33,13 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
+from hullcap.errors import OptionsError, TrackingError
 from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target
 from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
-from hullcap.render import render_depth
 from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality, quality
+from hullcap.render import render_depth
 from hullcap.results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap.sequence import Sequence
 from hullcap.silhouette import background_model
@@ -118,11 +119,11 @@ class TrackerOptions:
 
     def __post_init__(self):
         if self.background not in ("statistical", "mog2"):
-            raise ValueError(f"background must be 'statistical' or 'mog2', got {self.background!r}")
+            raise OptionsError(f"background must be 'statistical' or 'mog2', got {self.background!r}")
         if not self.voxel_size > 0:
-            raise ValueError(f"voxel_size must be positive, got {self.voxel_size}")
+            raise OptionsError(f"voxel_size must be positive, got {self.voxel_size}")
         if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
-            raise ValueError("calibration_frames must be >= 2, calibration_seconds > 0, quality_window >= 1")
+            raise OptionsError("calibration_frames must be >= 2, calibration_seconds > 0, quality_window >= 1")
 
 
 class Tracker:
@@ -308,7 +309,7 @@ class Tracker:
             if not options.refine_joints:
                 return subject.model, frame, subject.fit
             return self._refine(subject, frame, n, show_progress)
-        raise ValueError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start from")
+        raise TrackingError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start from")
 
     def _refine(self, subject, first: int, n: int, show_progress: bool):
         """Track the first seconds with `subject`, fit its proportions and joint centres

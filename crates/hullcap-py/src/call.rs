@@ -1,13 +1,17 @@
 //! The one way every heavy engine call is made from Python: GIL released, panics caught,
-//! errors mapped to Python exceptions.
+//! errors mapped to the exceptions of `hullcap.errors`.
 
 use hullcap_body::BodyError;
 use hullcap_icp::IcpError;
 use hullcap_kdtree::KdTreeError;
 use hullcap_raster::RasterError;
-use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use std::panic::{AssertUnwindSafe, catch_unwind};
+
+// The exception family lives in Python (`hullcap.errors`); these are its Rust handles.
+pyo3::import_exception!(hullcap.errors, ModelError);
+pyo3::import_exception!(hullcap.errors, FitError);
+pyo3::import_exception!(hullcap.errors, EngineError);
 
 /// An engine error and the Python exception class it becomes.
 pub(crate) trait IntoPyErr {
@@ -15,16 +19,16 @@ pub(crate) trait IntoPyErr {
 }
 
 /// `IntoPyErr` for an engine error type: the variants matching `$engine` (a worker thread
-/// panicked: the engine's fault) become `RuntimeError`, every other one (bad input)
-/// `ValueError`; the message is the error's own.
+/// panicked: the engine's fault) become `hullcap.errors.EngineError`, every other one (bad
+/// input) the error class `$input` of that crate's kind; the message is the error's own.
 macro_rules! input_or_engine_errors {
-    ($($ty:ty => $engine:pat),+ $(,)?) => {$(
+    ($($ty:ty => $input:ty, $engine:pat),+ $(,)?) => {$(
         impl IntoPyErr for $ty {
             fn into_py_err(self) -> PyErr {
                 if matches!(self, $engine) {
-                    PyRuntimeError::new_err(self.to_string())
+                    EngineError::new_err(self.to_string())
                 } else {
-                    PyValueError::new_err(self.to_string())
+                    <$input>::new_err(self.to_string())
                 }
             }
         }
@@ -32,10 +36,11 @@ macro_rules! input_or_engine_errors {
 }
 
 input_or_engine_errors! {
-    KdTreeError => KdTreeError::Worker(_),
-    BodyError => BodyError::Worker(_),
-    RasterError => RasterError::Panicked(_),
-    IcpError => IcpError::Worker(_) | IcpError::Body(BodyError::Worker(_)) | IcpError::Target(KdTreeError::Worker(_)),
+    KdTreeError => FitError, KdTreeError::Worker(_),
+    BodyError => ModelError, BodyError::Worker(_),
+    RasterError => ModelError, RasterError::Panicked(_),
+    IcpError => FitError,
+        IcpError::Worker(_) | IcpError::Body(BodyError::Worker(_)) | IcpError::Target(KdTreeError::Worker(_)),
 }
 
 /// Runs `f` without the GIL; its error becomes the matching Python exception, and a panic
@@ -55,7 +60,7 @@ where
                 .map(|s| (*s).to_owned())
                 .or_else(|| payload.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "(no message)".to_owned());
-            Err(PyRuntimeError::new_err(format!(
+            Err(EngineError::new_err(format!(
                 "internal error in the hullcap engine: {what}"
             )))
         }

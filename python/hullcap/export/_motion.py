@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from hullcap.errors import ResultsError
+
 
 def local_motion(path, model, root_translation, root_rotation, theta) -> tuple[np.ndarray, np.ndarray]:
     """``(local (F, L, 3, 3), root_position (F, 3))``: every link's rotation relative to
@@ -13,7 +15,7 @@ def local_motion(path, model, root_translation, root_rotation, theta) -> tuple[n
     theta = np.asarray(theta, float)
     good = ~np.isnan(theta).any(1)
     if not good.any():
-        raise ValueError(f"{path}: no fitted frame to write")
+        raise ResultsError(f"{path}: no fitted frame to write")
     parents = model.link_model.parents
     n_links = len(parents)
     local = np.zeros((len(theta), n_links, 3, 3))

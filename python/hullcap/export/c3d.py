@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
+from hullcap.errors import HullcapError, ResultsError
 
 __all__ = ["write_c3d", "read_c3d"]
 
@@ -20,7 +21,7 @@ def _ezc3d():
     try:
         import ezc3d
     except ImportError as e:
-        raise ValueError("C3D export needs ezc3d: pip install ezc3d (or hullcap[c3d])") from e
+        raise HullcapError("C3D export needs ezc3d: pip install ezc3d (or hullcap[c3d])") from e
     return ezc3d
 
 
@@ -29,7 +30,7 @@ def write_c3d(path, joint_names, joints, fps: float) -> None:
     ezc3d = _ezc3d()
     joints = np.asarray(joints, float)
     if joints.ndim != 3 or joints.shape[1:] != (len(joint_names), 3):
-        raise ValueError(f"joints must have shape (F, {len(joint_names)}, 3), got {joints.shape}")
+        raise ResultsError(f"joints must have shape (F, {len(joint_names)}, 3), got {joints.shape}")
     c3d = ezc3d.c3d()
     c3d["parameters"]["POINT"]["RATE"]["value"] = np.array([fps])
     c3d["parameters"]["POINT"]["LABELS"]["value"] = list(joint_names)
@@ -48,6 +49,6 @@ def read_c3d(path) -> tuple[list[str], np.ndarray, float]:
     unit = c3d["parameters"]["POINT"]["UNITS"]["value"][0].strip().lower()
     scale = {"mm": 1e-3, "cm": 1e-2, "m": 1.0}.get(unit)
     if scale is None:
-        raise ValueError(f"{path}: unknown point unit {unit!r}")
+        raise ResultsError(f"{path}: unknown point unit {unit!r}")
     points = c3d["data"]["points"][:3].transpose(2, 1, 0) * scale
     return labels, points, float(c3d["parameters"]["POINT"]["RATE"]["value"][0])

@@ -1,0 +1,56 @@
+"""The exceptions hullcap raises, so that a caller can tell a bad calibration from a bad
+frame or a fit that found nobody.
+
+Every one derives from :class:`HullcapError`, and from ``ValueError`` when the fault lies
+in what was given (a file, an array, an option), so ``except ValueError`` keeps working.
+Messages name the file, camera, frame or array at fault. Errors of the engine arrive as
+the class of their kind (a bad mesh or link model as :class:`ModelError`, a bad target or
+fit input as :class:`FitError`), and an engine bug — a panic, caught before it can cross
+into Python — as :class:`EngineError`.
+"""
+
+from __future__ import annotations
+
+__all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ModelError", "HullError",
+           "FitError", "TrackingError", "ResultsError", "EngineError"]
+
+
+class HullcapError(Exception):
+    """Base of every error hullcap raises on purpose."""
+
+
+class OptionsError(HullcapError, ValueError):
+    """An option out of its range or an unknown name (a motion, a DOF, a method)."""
+
+
+class CalibrationError(HullcapError, ValueError):
+    """A camera calibration: ``cameras.json`` or an import, a field, a rotation, cameras
+    that share no volume."""
+
+
+class SequenceError(HullcapError, ValueError):
+    """A sequence folder: ``meta.json``, a frame, video, background or mask of a camera."""
+
+
+class ModelError(HullcapError, ValueError):
+    """A body or link model, a mesh or a pose given for a model."""
+
+
+class HullError(HullcapError, ValueError):
+    """Silhouettes that carve no visual hull."""
+
+
+class FitError(HullcapError, ValueError):
+    """The inputs of a fit or of the subject's model; a hull that shows no person."""
+
+
+class TrackingError(HullcapError, ValueError):
+    """A sequence in which no frame shows a body the model can start from."""
+
+
+class ResultsError(HullcapError, ValueError):
+    """A run's results folder or one of its files."""
+
+
+class EngineError(HullcapError, RuntimeError):
+    """A fault of the engine itself (please report it, with the message)."""

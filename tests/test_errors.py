@@ -1,0 +1,54 @@
+"""The exception family: each kind of fault raises its own class, a ValueError where the
+input is at fault, with a message naming what is at fault; engine errors arrive mapped."""
+
+import json
+
+import numpy as np
+import pytest
+
+import hullcap
+from hullcap import BodyModel, Sequence, errors, visual_hull
+from hullcap.cameras import ring
+
+
+def test_every_error_is_a_hullcap_error_and_input_errors_are_value_errors():
+    for name in errors.__all__:
+        cls = getattr(errors, name)
+        assert issubclass(cls, errors.HullcapError)
+        assert issubclass(cls, ValueError) != (cls in (errors.HullcapError, errors.EngineError)), name
+    assert issubclass(errors.EngineError, RuntimeError)
+    assert hullcap.HullcapError is errors.HullcapError
+
+
+def test_each_kind_of_fault_raises_its_own_class(tmp_path):
+    (tmp_path / "cameras.json").write_text(json.dumps({"units": "m", "cameras": [{"name": "cam0"}]}))
+    with pytest.raises(errors.CalibrationError, match="cameras.json"):
+        Sequence(tmp_path)
+    with pytest.raises(errors.SequenceError, match="no such sequence folder"):
+        Sequence(tmp_path / "nowhere")
+    cams = ring(4, radius=3.0, width=64, height_px=48)
+    with pytest.raises(errors.HullError, match="every mask is empty"):
+        visual_hull([np.zeros((48, 64), np.uint8)] * 4, cams)
+    with pytest.raises(errors.ModelError, match="model folder"):
+        BodyModel.load(tmp_path / "no_model")
+    with pytest.raises(errors.ResultsError, match="pose.npz"):
+        (tmp_path / "out" / "model").mkdir(parents=True)
+        BodyModel.template().save(tmp_path / "out" / "model")
+        hullcap.load_result(tmp_path / "out")
+    with pytest.raises(errors.OptionsError, match="voxel_size"):
+        hullcap.TrackerOptions(voxel_size=0)
+
+
+def test_engine_errors_arrive_as_their_kind():
+    with pytest.raises(errors.FitError, match="zero points"):
+        hullcap.NormalKDTree(np.zeros((0, 3)), np.zeros((0, 3)))
+    with pytest.raises(errors.FitError, match=r"normals\[1\] is not finite"):
+        hullcap.NormalKDTree(np.zeros((2, 3)), [[0, 0, 1], [np.nan, 0, 1]])
+    model = BodyModel.template()
+    links, groups = model.link_model.all_segments()
+    with pytest.raises(errors.ModelError, match="not finite"):  # a vertex at infinity
+        vertices = model.vertices.copy()
+        vertices[3] = np.inf
+        hullcap.skin_weights(vertices, model.faces, links, groups=groups)
+    with pytest.raises(errors.ModelError, match="not a rotation"):
+        model.pose(np.zeros(model.n_dofs), 2 * np.eye(3), np.zeros(3))
