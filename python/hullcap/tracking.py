@@ -77,16 +77,21 @@ class TrackerOptions:
             fit the model's proportions and joint centres again over `calibration_frames`
             frames of them, and track from the start with the refined model.
         calibration_seconds, calibration_frames: see `refine_joints`.
-        quality_window: the good frames (most recent) whose median quality is the
+        quality_window: the accepted frames (most recent) whose median quality is the
             reference a new frame is judged against.
-        quality_margin: a fit is good when its quality is at most this far below the
-            reference. Quality is a fraction of points (0…1); in good tracking it varies by
+        quality_margin: a fit passes without a search when its quality is at most this far
+            below the reference. Quality is a fraction of points (0…1); in good tracking it varies by
             a few hundredths from frame to frame.
         chain_margin: and when each limb chain's quality (:func:`hullcap.reacquire.
             chain_quality`) is at most this far below that chain's own reference. A whole
             body's quality barely moves when one arm is lost (an arm is a few per cent of
             the body); the arm's own falls from 0.7–0.95 to 0.2–0.55.
-        min_quality: a fit below this is never good, whatever the reference.
+        min_quality: a fit below this never stands: the frame fails.
+        confirm_margin: when a fit is not good, the search from the hull says what the
+            frame's hull can give: the tracked fit stands (good) unless the search found
+            one better by more than this, which then stands (recovered); either way above
+            `min_quality`, and the reference follows. The margins above only decide when
+            to search; a frame fails when nothing explains its hull to `min_quality`.
         min_subject_agreement: how well the subject's model, fitted in a frame, must
             agree with that frame's silhouettes (mean over the views of the intersection
             over union of the model's silhouette and the mask) for tracking to start there.
@@ -112,6 +117,7 @@ class TrackerOptions:
     quality_margin: float = 0.1
     chain_margin: float = 0.2
     min_quality: float = 0.5
+    confirm_margin: float = 0.02
     min_subject_agreement: float = 0.5
     reacquire: bool = True
     search: SearchOptions = field(default_factory=SearchOptions)
@@ -355,6 +361,7 @@ class Tracker:
                 break
         status = GOOD if best is not None and state.good(best) else FAILED
         if status == FAILED and self.options.reacquire:
+            tracked = best
             lost = [] if best is None else state.lost_chains(best)
             if best is not None and lost and quality(best) >= state.floor():
                 # Only limbs are lost: re-sample those first, the whole search if that fails.
@@ -365,7 +372,14 @@ class Tracker:
                 iterations += spent
                 if best is None or quality(found) > quality(best):
                     best = found
-            status = RECOVERED if state.good(best) else FAILED
+            if state.good(best) or quality(best) < self.options.min_quality:
+                status = RECOVERED if state.good(best) else FAILED
+            elif tracked is not None and quality(tracked) + self.options.confirm_margin >= quality(best):
+                # The search explains this hull no better than the tracked fit: the hull got
+                # worse (fewer views see the person, a limb hides another), not the fit.
+                best, status = tracked, GOOD
+            else:  # the search explains it better: what this hull can give
+                status = RECOVERED
         if best is None:  # nothing to start from and no search
             result.fail(frame)
             return
