@@ -43,25 +43,12 @@ def names(devset: Path) -> list[str]:
     return sorted(p.stem for p in (devset / "packed").glob("*.npz"))
 
 
-def render(devset: Path, name: str, cache: Path = CACHE, frames: int | None = None) -> Path:
-    """The sequence folder of `name`, rendered into `cache` unless it is there already.
-    With `frames`, only the first frames, into ``cache/<name>-<frames>`` (for tests)."""
-    out = cache / (name if frames is None else f"{name}-{frames}")
-    if (out / "meta.json").is_file():
-        return out
-    if frames is None:
+def render(devset: Path, name: str, cache: Path = CACHE) -> Path:
+    """The sequence folder of `name`, rendered into `cache` unless it is there already."""
+    out = cache / name
+    if not (out / "meta.json").is_file():
         subprocess.run([sys.executable, str(devset / "render_packed.py"), "--out", str(cache), "--only", name],
                        check=True)
-        return out
-    sys.path.insert(0, str(devset))
-    try:
-        import packfile
-        import render as renderer
-    finally:
-        sys.path.remove(str(devset))
-    rec = packfile.load(str(devset / "packed" / f"{name}.npz"))
-    rec["verts"], rec["joints"] = rec["verts"][:frames], rec["joints"][:frames]
-    renderer.write_sequence(rec, str(out), jobs=2)
     return out
 
 

@@ -16,9 +16,9 @@ from hullcap.guided import GuidedOptions
 from hullcap.hull import HullReport, visual_hull
 from hullcap.links import LinkModel
 from hullcap.mesh import Surface, read_mesh, write_mesh
+from hullcap.reacquire import SearchOptions
 from hullcap.results import TrackingResult, load_result, smooth_joints
 from hullcap.sequence import Sequence
-from hullcap.reacquire import SearchOptions
 from hullcap.shape import ShapeBasis
 from hullcap.subject import SubjectFit, SubjectOptions, build_subject
 from hullcap.tracking import Tracker, TrackerOptions

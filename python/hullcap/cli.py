@@ -62,7 +62,7 @@ def _demo(args) -> int:
         seq_path = synthesize(root / "sequence", args.motion, args.cameras, args.subject, seed=args.seed)
         render_s = time.perf_counter() - t0
         seq = Sequence(seq_path)
-        print("tracking: background subtraction → visual hull → subject model from frame 0 → "
+        print("tracking: background subtraction → visual hull → subject model from the first frames → "
               "hierarchical robust ICP per frame")
         tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=False))
         t0 = time.perf_counter()

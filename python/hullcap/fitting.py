@@ -13,7 +13,7 @@ from hullcap.body import BodyModel
 from hullcap.errors import FitError
 from hullcap.mesh import Surface
 
-__all__ = ["FitOptions", "FitResult", "PoseParameters", "fit", "make_target", "yaw_rotation"]
+__all__ = ["FitOptions", "FitResult", "PoseParameters", "fit", "make_target", "quality", "yaw_rotation"]
 
 
 def yaw_rotation(angle: float) -> np.ndarray:
@@ -73,6 +73,14 @@ class FitResult:
     mean_reverse_residual: float
     sigma: float
     link_counts: np.ndarray
+
+
+def quality(stats) -> float:
+    """How much of the hull a fit explains both ways, ½(inlier fraction + coverage), of a
+    :class:`FitResult` or of the engine's statistics (a dict); 1 = every model point and
+    every hull sample within the inlier distance of a partner."""
+    get = (lambda k: stats[k]) if isinstance(stats, dict) else (lambda k: getattr(stats, k))
+    return 0.5 * (get("inlier_fraction") + get("coverage"))
 
 
 DEFAULT_NORMAL_WEIGHT = 0.05

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hullcap.silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered
+from hullcap.silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered, signed_distance
 
 __all__ = ["GuidedOptions", "ColourModel", "GuidedSegmenter", "dilated"]
 
@@ -126,7 +126,7 @@ class GuidedSegmenter:
         if box is None:
             return
         margin = max(1, int(round(self.options.learn_margin * box[3])))
-        d = _signed_distance(model_silhouette)
+        d = signed_distance(model_silhouette)
         self.colours.learn(image, d > margin, (d < -margin) & (d > -4 * margin))
 
     def mask(self, image: np.ndarray, prior: np.ndarray | None) -> np.ndarray:
@@ -145,7 +145,7 @@ class GuidedSegmenter:
         x0, x1 = max(0, x - pad), min(image.shape[1], x + w + pad)
         roi = (slice(y0, y1), slice(x0, x1))
         band = max(1.0, o.band * h)
-        d = _signed_distance(prior[roi])
+        d = signed_distance(prior[roi])
         ev = np.clip(evidence[roi], -3.0, FOREGROUND_EVIDENCE)
         logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * np.clip(d / band, -1.0, 1.0)
         if o.colour_weight:
@@ -172,10 +172,3 @@ def _box(silhouette: np.ndarray):
     if not silhouette.any():
         return None
     return cv2.boundingRect(silhouette.astype(np.uint8))
-
-
-def _signed_distance(silhouette: np.ndarray) -> np.ndarray:
-    """Pixels to the outline, positive inside the silhouette, negative outside."""
-    inside = silhouette.astype(np.uint8)
-    return (cv2.distanceTransform(inside, cv2.DIST_L2, 3)
-            - cv2.distanceTransform(1 - inside, cv2.DIST_L2, 3)).astype(np.float32)

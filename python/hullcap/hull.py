@@ -17,7 +17,6 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
-import cv2
 import numpy as np
 from scipy import ndimage
 from skimage.measure import marching_cubes
@@ -25,6 +24,7 @@ from skimage.measure import marching_cubes
 from hullcap.cameras import Cameras
 from hullcap.errors import CalibrationError, HullError
 from hullcap.mesh import Surface
+from hullcap.silhouette import signed_distance
 
 __all__ = ["visual_hull", "capture_volume", "HullReport"]
 
@@ -39,22 +39,14 @@ class HullReport:
     mesh_seconds: float = 0.0
 
 
-def _signed_distance(mask) -> np.ndarray:
-    """Pixels to the nearest pixel of the other class, positive inside the mask."""
-    inside = (np.asarray(mask) > 0).astype(np.uint8)
-    d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
-    d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
-    return np.where(inside > 0, d_in, -d_out).astype(np.float32)
-
-
 class _View:
     """One camera's mask as the carving needs it: signed distance to the silhouette edge
     (and to the prior's, when one is given)."""
 
     def __init__(self, camera, mask, prior=None):
         self.camera = camera
-        self.signed = _signed_distance(mask)
-        self.prior = None if prior is None else _signed_distance(prior)
+        self.signed = signed_distance(mask)
+        self.prior = None if prior is None else signed_distance(prior)
         self.focal = float(max(camera.K[0, 0], camera.K[1, 1]))
 
     def lookup(self, points):

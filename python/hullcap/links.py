@@ -120,6 +120,16 @@ class LinkModel:
         segs = np.concatenate([self.segments, self.structure_segments.reshape(-1, 2, 3)])
         return segs, list(range(len(self.names))) + [int(p) for p in self.structure_links]
 
+    def dof_indices(self, name: str) -> list[int]:
+        """The DOF called `name`, or, for a name without a side (``"knee_flexion"``), the
+        DOF of that name on both sides (``l_knee_flexion``, ``r_knee_flexion``) or on
+        the midline (``waist_flexion``). `ModelError` when none has that name."""
+        names = [name] if name[:2] in ("l_", "r_") else [f"l_{name}", f"r_{name}", name]
+        hits = [self.dof_names.index(n) for n in names if n in self.dof_names]
+        if not hits:
+            raise ModelError(f"{self.source}: no DOF named {name!r}")
+        return hits
+
     def clamp(self, theta) -> np.ndarray:
         """`theta` (…, D) clamped into the joint limits."""
         return np.clip(theta, self.dof_limits[:, 0], self.dof_limits[:, 1])

@@ -24,9 +24,9 @@ from hullcap import _engine
 from hullcap._engine import FitOptions
 from hullcap.body import BodyModel
 from hullcap.errors import OptionsError
-from hullcap.fitting import FitResult, PoseParameters, fit, yaw_rotation
+from hullcap.fitting import FitResult, PoseParameters, fit, quality, yaw_rotation
 
-__all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS", "chain_links", "chain_quality", "quality"]
+__all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS", "chain_links", "chain_quality"]
 
 CANONICAL_POSES = {
     "arms down": {"shoulder_abduction": -75, "elbow_flexion": 15},
@@ -72,12 +72,6 @@ class SearchOptions:
             raise OptionsError("SearchOptions: headings, keep, chain_samples and recent must be at least 1")
 
 
-def quality(stats) -> float:
-    """½(inlier fraction + coverage) of a fit or of engine statistics."""
-    get = (lambda k: stats[k]) if isinstance(stats, dict) else (lambda k: getattr(stats, k))
-    return 0.5 * (get("inlier_fraction") + get("coverage"))
-
-
 def chain_links(model: BodyModel) -> list[np.ndarray]:
     """The link indices of each chain of :data:`CHAINS` present in `model`."""
     names = model.link_model.names
@@ -110,6 +104,7 @@ class PoseSearch:
         self.options = options or SearchOptions()
         self._rng = np.random.default_rng(seed)
         self._canonical = [_angles(model, spec) for spec in CANONICAL_POSES.values()]
+        self._canonical_centroids = [self._centroid(theta) for theta in self._canonical]
         dof_links = model.link_model.dof_links
         self._chains = [np.flatnonzero(np.isin(dof_links, links)) for links in chain_links(model)]
 
@@ -143,11 +138,11 @@ class PoseSearch:
         library = [p.theta for p in recent[: self.options.recent]]
         if calibration is not None:
             library.append(calibration.theta)
+        offsets = [self._centroid(theta) for theta in library] + self._canonical_centroids
         library += self._canonical
         last = recent[0].root_rotation if recent else np.eye(3)  # headings spaced from it
         candidates = []
-        for theta in library:
-            offset = self.model.pose(theta).vertices.mean(0)  # centroid, body frame
+        for theta, offset in zip(library, offsets):
             for k in range(self.options.headings):
                 R = yaw_rotation(2 * np.pi * k / self.options.headings) @ last
                 candidates.append(PoseParameters(theta, R, centre - R @ offset))
@@ -162,6 +157,10 @@ class PoseSearch:
         best, spent = self.resample(target, best, range(len(self._chains)))
         return best, iterations + spent
 
+    def _centroid(self, theta) -> np.ndarray:
+        """The posed mesh's centroid in the body frame."""
+        return self.model.pose(theta).vertices.mean(0)
+
     def _rank(self, target, poses: list[PoseParameters]) -> list[PoseParameters]:
         stats = _engine.evaluate(self.model._rig, target, [np.asarray(p.theta, float).tolist() for p in poses],
                                  [np.asarray(p.root_rotation, float) for p in poses],
@@ -171,10 +170,8 @@ class PoseSearch:
 
 
 def _angles(model: BodyModel, spec: dict) -> np.ndarray:
-    names = model.dof_names
+    """The joint angles of a :data:`CANONICAL_POSES` entry, within the model's limits."""
     theta = np.zeros(model.n_dofs)
     for name, degrees in spec.items():
-        for full in ([name] if name[:2] in ("l_", "r_") else [f"l_{name}", f"r_{name}"]):
-            if full in names:
-                theta[names.index(full)] = np.radians(degrees)
+        theta[model.link_model.dof_indices(name)] = np.radians(degrees)
     return model.clamp(theta)

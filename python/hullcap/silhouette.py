@@ -27,7 +27,8 @@ import numpy as np
 
 from hullcap.errors import OptionsError, SequenceError
 
-__all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask"]
+__all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask", "half_covered",
+           "signed_distance"]
 
 
 @dataclass(frozen=True)
@@ -201,6 +202,15 @@ def half_covered(mask: np.ndarray, distortion: np.ndarray) -> np.ndarray:
     out = mask.copy()
     out[ring & (distortion < 0.5 * neighbours)] = 0
     return out
+
+
+def signed_distance(mask: np.ndarray) -> np.ndarray:
+    """(H, W) float32 pixels from each pixel to the nearest pixel of the other class,
+    positive inside `mask` (bool, or > 0 inside)."""
+    inside = (np.asarray(mask) > 0).astype(np.uint8)
+    d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
+    d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
+    return np.where(inside > 0, d_in, -d_out).astype(np.float32)
 
 
 def _stack(backgrounds) -> np.ndarray:

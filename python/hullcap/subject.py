@@ -20,8 +20,8 @@ import numpy as np
 from hullcap import _engine
 from hullcap._engine import FitOptions, NormalKDTree
 from hullcap.body import BodyModel
-from hullcap.errors import FitError, OptionsError
-from hullcap.fitting import FitResult, PoseParameters, fit, make_target
+from hullcap.errors import FitError, ModelError, OptionsError
+from hullcap.fitting import FitResult, PoseParameters, fit, make_target, quality
 from hullcap.mesh import Surface
 from hullcap.shape import ShapeBasis, ShapeParameter
 
@@ -188,10 +188,10 @@ def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOp
     tried = []
     for yaw in np.arange(options.headings) * 2 * np.pi / options.headings:
         result = fit(model, target, PoseParameters.rest(model, root, yaw), quick)
-        tried.append((_score(result), result))
+        tried.append((quality(result), result))
     tried.sort(key=lambda t: t[0], reverse=True)
     refined = [fit(model, target, r.pose, options.fit) for _, r in tried[: options.keep]]
-    return max(refined, key=_score)
+    return max(refined, key=quality)
 
 
 def _limited(model: BodyModel, limits: dict) -> BodyModel:
@@ -200,19 +200,12 @@ def _limited(model: BodyModel, limits: dict) -> BodyModel:
     links = model.link_model
     new = links.dof_limits.copy()
     for name, (lo, hi) in limits.items():
-        names = [name] if name[:2] in ("l_", "r_") else [f"l_{name}", f"r_{name}", name]
-        hits = [links.dof_names.index(n) for n in names if n in links.dof_names]
-        if not hits:
-            raise OptionsError(f"calibration_limits names unknown DOF {name!r}")
-        new[hits] = np.radians([lo, hi])
+        try:
+            new[links.dof_indices(name)] = np.radians([lo, hi])
+        except ModelError as e:
+            raise OptionsError(f"SubjectOptions.calibration_limits: {e}") from e
     b, k = model.skin_parameters
     return BodyModel(replace(links, dof_limits=new), model.vertices, model.faces, skin=model.skin, b=b, k=k)
-
-
-def _score(result: FitResult) -> float:
-    """How well a fit explains the hull both ways (1 + 1 = every point within the inlier
-    distance)."""
-    return result.inlier_fraction + result.coverage
 
 
 def _height(vertices) -> float:

@@ -7,13 +7,15 @@ proportions and joint centres are fitted again over frames of that motion, where
 joints bend (:func:`hullcap.build_subject`). Tracking then starts over with the refined
 model.
 
-Each frame: silhouettes (given, or by background subtraction) → visual hull → a fit from
-the pose predicted by constant velocity, then from the last good pose → a judgement of
-the fit: its quality (how much of the hull it explains both ways,
-½(inlier fraction + coverage)) against the median quality of the recent good frames,
-which carries what this camera rig and this subject's hulls can give. A fit well below it
-starts a search from the hull itself (:mod:`hullcap.reacquire`); the frame is
-``recovered`` when that brings the quality back, ``failed`` when not.
+Each frame: silhouettes (given, or by background subtraction guided by the predicted
+model) → visual hull → a fit from the pose predicted by constant velocity, then from the
+last good pose → a judgement of the fit: its quality (how much of the hull it explains
+both ways, ½(inlier fraction + coverage)), and each limb's, against the median of the
+recent accepted frames. A fit below them starts a search from the hull itself
+(:mod:`hullcap.reacquire`), which says what this frame's hull can give: the tracked fit
+stands when the search finds nothing better (``good``), the search's fit when it does
+(``recovered``), and the frame is ``failed`` when nothing explains its hull to
+``min_quality``.
 
 Outputs (docs/formats.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``,
 ``model.glb``, all written atomically. A checkpoint (``.checkpoint.npz``) written every
@@ -27,6 +29,7 @@ import time
 import warnings
 from collections import defaultdict, deque
 from dataclasses import dataclass, field
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -34,11 +37,11 @@ import numpy as np
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
 from hullcap.errors import OptionsError, TrackingError
-from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target
+from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
 from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap.hull import HullReport, capture_volume, visual_hull
 from hullcap.progress import progress
-from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality, quality
+from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
 from hullcap.render import render_depth
 from hullcap.results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap.sequence import Sequence
@@ -148,7 +151,6 @@ class Tracker:
         self._bounds = capture_volume(sequence.cameras)
         self._backgrounds = None
         self._guided = None
-        self._last_masks = (None, [])
         self.seconds: dict = defaultdict(float)
         self.problems: list[str] = []
         """Frames and views left out, and why."""
@@ -222,27 +224,32 @@ class Tracker:
         """The visual hull of `frame`, with the model at a predicted pose as its prior
         (`prior`: ``(model, PoseParameters)``): it guides the silhouettes (:meth:`masks`)
         and says where a view that misses a part may be overruled (`hull_tolerance`).
-        `ValueError` when there is no hull."""
-        silhouettes = None if prior is None else self._silhouettes(*prior)
+        `HullError` (a `ValueError`) when there is no hull."""
+        return self._carve(frame, prior)[0]
+
+    def _carve(self, frame: int, prior=None):
+        """``(hull, masks)`` of `frame` (see :meth:`hull`)."""
+        tolerance = self._hull_tolerance
+        # The prior's silhouettes serve the guided masks and the tolerant hull, nothing else.
+        used = prior is not None and (tolerance > 0 or self._guides())
+        silhouettes = self._silhouettes(*prior) if used else None
         masks = self.masks(frame, silhouettes)
-        self._last_masks = (frame, masks)
         t0 = time.perf_counter()
         report = HullReport()
-        priors = None if silhouettes is None else [dilated(s, self.options.guidance.band) for s in silhouettes]
+        priors = None if silhouettes is None or tolerance == 0 else \
+            [dilated(s, self.options.guidance.band) for s in silhouettes]
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
-                return visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self._bounds, report,
-                                   tolerance=self._hull_tolerance, priors=priors)
+                surface = visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self._bounds, report,
+                                      tolerance=tolerance, priors=priors)
+            return surface, masks
         finally:
             self.problems += [f"frame {frame}: camera {c!r} left out ({why})" for c, why in report.skipped.items()]
             self.seconds["hull"] += time.perf_counter() - t0
 
-    def _agreement(self, frame: int, model: BodyModel, pose: PoseParameters) -> float:
-        """Mean over the views of the IoU of `model`'s silhouette at `pose` and the masks
-        the last hull of `frame` was carved from."""
-        last, masks = self._last_masks
-        assert last == frame, "the hull of this frame must be the last one carved"
+    def _agreement(self, masks, model: BodyModel, pose: PoseParameters) -> float:
+        """Mean over the views of the IoU of `model`'s silhouette at `pose` and `masks`."""
         ious = []
         for mask, sil in zip(masks, self._silhouettes(model, pose)):
             union = np.logical_or(mask > 0, sil).sum()
@@ -286,13 +293,13 @@ class Tracker:
         options = self.options
         for frame in range(n):
             try:
-                hull = self.hull(frame)
+                hull, masks = self._carve(frame)
             except ValueError as e:
                 self.problems.append(f"frame {frame}: {e}")
                 continue
             if self.model is not None:
                 placed = place_model(self.model, hull, options=options.subject)
-                if self._agreement(frame, self.model, placed.pose) >= options.min_subject_agreement:
+                if self._agreement(masks, self.model, placed.pose) >= options.min_subject_agreement:
                     self.learn_colours(frame, self.model, placed.pose, fresh=True)
                     return self.model, frame, placed
                 continue
@@ -302,12 +309,12 @@ class Tracker:
                 # (clothes the colour of the room): build it again from them, twice.
                 for _ in range(2 if self._guides() else 0):
                     self.learn_colours(frame, subject.model, subject.pose, fresh=True)
-                    guided = self.hull(frame, (subject.model, subject.pose))
+                    guided, masks = self._carve(frame, (subject.model, subject.pose))
                     subject = build_subject(guided, poses=[subject.pose], options=options.subject)
             except ValueError as e:
                 self.problems.append(f"frame {frame}: {e}")
                 continue
-            agreement = self._agreement(frame, subject.model, subject.pose)
+            agreement = self._agreement(masks, subject.model, subject.pose)
             if agreement < options.min_subject_agreement:
                 self.problems.append(f"frame {frame}: the body model fitted there agrees too little with the "
                                      f"silhouettes (mean IoU {agreement:.2f}) to start from")
@@ -341,8 +348,8 @@ class Tracker:
         guided by the predicted pose when the frame before was tracked (after a failure,
         a wrong prediction would hide the person it missed)."""
         starts = state.starts(result, frame)
-        tracked = frame > 0 and not result.failed[frame - 1]
-        prior = (state.model, starts[0]) if starts and (tracked or state.anchor_only(result, frame)) else None
+        follows = frame > 0 and not result.failed[frame - 1]
+        prior = (state.model, starts[0]) if starts and (follows or state.anchor_only(result, frame)) else None
         try:
             surface = self.hull(frame, prior)
         except ValueError as e:  # no usable view in this frame
@@ -361,25 +368,18 @@ class Tracker:
                 break
         status = GOOD if best is not None and state.good(best) else FAILED
         if status == FAILED and self.options.reacquire:
-            tracked = best
+            found = best
             lost = [] if best is None else state.lost_chains(best)
-            if best is not None and lost and quality(best) >= state.floor():
+            if lost and quality(best) >= state.floor():
                 # Only limbs are lost: re-sample those first, the whole search if that fails.
-                best, spent = state.search.resample(target, best, lost)
+                found, spent = state.search.resample(target, best, lost)
                 iterations += spent
-            if best is None or not state.good(best):
-                found, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose)
+            if found is None or not state.good(found):
+                searched, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose)
                 iterations += spent
-                if best is None or quality(found) > quality(best):
-                    best = found
-            if state.good(best) or quality(best) < self.options.min_quality:
-                status = RECOVERED if state.good(best) else FAILED
-            elif tracked is not None and quality(tracked) + self.options.confirm_margin >= quality(best):
-                # The search explains this hull no better than the tracked fit: the hull got
-                # worse (fewer views see the person, a limb hides another), not the fit.
-                best, status = tracked, GOOD
-            else:  # the search explains it better: what this hull can give
-                status = RECOVERED
+                if found is None or quality(searched) > quality(found):
+                    found = searched
+            best, status = state.decide(best, found)
         if best is None:  # nothing to start from and no search
             result.fail(frame)
             return
@@ -422,7 +422,7 @@ class _State:
             self.remember_fit(anchor)
 
     def remember_fit(self, fitted) -> None:
-        """Take a good fit's quality, and its chains', into the references."""
+        """Take an accepted fit's quality, and its chains', into the references."""
         self.reference.append(quality(fitted))
         self.chain_reference.append(chain_quality(fitted.link_counts, self.chains))
 
@@ -456,6 +456,19 @@ class _State:
         q = chain_quality(fitted.link_counts, self.chains)
         return [c for c in self.limbs if q[c] < reference[c] - self.options.chain_margin]
 
+    def decide(self, tracked: FitResult | None, found: FitResult) -> tuple[FitResult, int]:
+        """The fit that stands for a frame whose tracked fit did not pass, and its status,
+        given the best the search `found` (see ``TrackerOptions.confirm_margin``)."""
+        if self.good(found):
+            return found, RECOVERED
+        if quality(found) < self.options.min_quality:
+            return found, FAILED
+        if tracked is not None and quality(tracked) + self.options.confirm_margin >= quality(found):
+            # The search explains this hull no better than the tracked fit: the hull got
+            # worse (fewer views see the person, a limb hides another), not the fit.
+            return tracked, GOOD
+        return found, RECOVERED  # the search explains it better: what this hull can give
+
     def good(self, fitted: FitResult) -> bool:
         return quality(fitted) >= self.floor() and not self.lost_chains(fitted)
 
@@ -468,7 +481,7 @@ class _State:
     def starts(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
         """Constant-velocity prediction from the last two frames when both are good, then
         the last good pose; the anchor when nothing was tracked yet."""
-        good = [f for f in range(frame - 1, -1, -1) if not result.failed[f]][:2]
+        good = list(islice((f for f in range(frame - 1, -1, -1) if not result.failed[f]), 2))
         if not good:
             return [self.anchor_pose] if self.anchor_pose is not None else []
         last = PoseParameters(result.theta[good[0]], result.root_rotation[good[0]], result.root_translation[good[0]])

@@ -311,7 +311,7 @@ fn check_link(j: usize, n: usize, array: &'static str, row: usize) -> Result<(),
 mod tests {
     use super::*;
     use crate::Rig;
-    use crate::testing::blended_rig;
+    use crate::testing::{blended_rig, chain_shape_parameters};
     use nalgebra::Rotation3;
 
     fn rig() -> Rig {
@@ -321,25 +321,7 @@ mod tests {
     /// Length of link 1 (along x), girth of link 2, a shift of link 2's joint, and a move
     /// of link 1's centre.
     fn params() -> Vec<ShapeParameter> {
-        let along = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        vec![
-            ShapeParameter {
-                stretches: vec![(1, along)],
-                ..ShapeParameter::default()
-            },
-            ShapeParameter {
-                stretches: vec![(2, Matrix3::identity() - along)],
-                ..ShapeParameter::default()
-            },
-            ShapeParameter {
-                shifts: vec![(2, Vector3::new(0.0, 0.1, -0.05))],
-                ..ShapeParameter::default()
-            },
-            ShapeParameter {
-                centres: vec![(1, Vector3::new(0.05, 0.02, 0.0))],
-                ..ShapeParameter::default()
-            },
-        ]
+        chain_shape_parameters([0.0, 0.1, -0.05], (1, [0.05, 0.02, 0.0]))
     }
 
     #[test]

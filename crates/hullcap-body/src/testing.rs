@@ -1,8 +1,8 @@
 //! Small bodies for tests, shared with the crates that build on this one (enable the
 //! `testing` feature).
 
-use crate::{Dof, Rig, Skeleton, SkinWeights};
-use nalgebra::Vector3;
+use crate::{Dof, Rig, ShapeParameter, Skeleton, SkinWeights};
+use nalgebra::{Matrix3, Vector3};
 
 /// A three-link chain along +x: base at the origin, joints at x = 1 and x = 2; link 1
 /// turns about z then y, link 2 about z; limits ±2 rad.
@@ -53,4 +53,29 @@ pub fn blended_rig(samples: usize, spacing: f64, first: f64) -> Rig {
         },
     )
     .unwrap()
+}
+
+/// Shape parameters of [`chain`]: link 1's length (along x), link 2's girth (across x),
+/// a shift of link 2's joint by `shift`, and a move of link `centre.0`'s centre by
+/// `centre.1`.
+pub fn chain_shape_parameters(shift: [f64; 3], centre: (usize, [f64; 3])) -> Vec<ShapeParameter> {
+    let along = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    vec![
+        ShapeParameter {
+            stretches: vec![(1, along)],
+            ..ShapeParameter::default()
+        },
+        ShapeParameter {
+            stretches: vec![(2, Matrix3::identity() - along)],
+            ..ShapeParameter::default()
+        },
+        ShapeParameter {
+            shifts: vec![(2, Vector3::from(shift))],
+            ..ShapeParameter::default()
+        },
+        ShapeParameter {
+            centres: vec![(centre.0, Vector3::from(centre.1))],
+            ..ShapeParameter::default()
+        },
+    ]
 }

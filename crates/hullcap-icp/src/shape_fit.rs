@@ -222,33 +222,15 @@ pub fn fit_shape(
 mod tests {
     use super::*;
     use crate::testing::{root, target_at, tube};
-    use hullcap_body::ShapeParameter;
-    use nalgebra::{Matrix3, Vector3};
+    use hullcap_body::testing::chain_shape_parameters;
+    use nalgebra::Vector3;
 
     /// Link 1 (x = 1…2) 25 % longer, the tube 15 % thicker around link 2, and link 2's
     /// joint centre 8 cm further along the tube than the model has it, seen in three poses:
     /// recovered from starts off by a few centimetres and tenths of radians.
     #[test]
     fn recovers_proportions_from_several_poses() {
-        let along = Matrix3::new(1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        let params = vec![
-            ShapeParameter {
-                stretches: vec![(1, along)],
-                ..ShapeParameter::default()
-            },
-            ShapeParameter {
-                stretches: vec![(2, Matrix3::identity() - along)],
-                ..ShapeParameter::default()
-            },
-            ShapeParameter {
-                shifts: vec![(2, Vector3::new(0.0, 0.0, 1.0))],
-                ..ShapeParameter::default()
-            },
-            ShapeParameter {
-                centres: vec![(2, Vector3::new(1.0, 0.0, 0.0))],
-                ..ShapeParameter::default()
-            },
-        ];
+        let params = chain_shape_parameters([0.0, 0.0, 1.0], (2, [1.0, 0.0, 0.0]));
         let shape = Shape::new(tube(), &params).unwrap();
         let truth_shape = [0.25, 0.15, 0.0, 0.08];
         let truth_rig = shape.rig(&truth_shape).unwrap();
