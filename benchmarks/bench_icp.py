@@ -18,7 +18,7 @@ import time
 
 import numpy as np
 
-from hullcap import BodyModel, PoseParameters, fit
+from hullcap import BodyModel, FitOptions, PoseParameters, fit
 from hullcap._implicit import field_mesh
 from hullcap.data.body import make_template  # type: ignore[attr-defined]
 from hullcap.fitting import make_target
@@ -44,8 +44,8 @@ def main():
     prepared = make_target(target)
     iterations = 15
     t0 = time.perf_counter()
-    result = fit(model, prepared, start, model_points=points, hierarchical=False, residual="point_to_plane",
-                 iterations=iterations, tolerance=0.0)
+    options = FitOptions(hierarchical=False, residual="point_to_plane", iterations=iterations, tolerance=0.0)
+    result = fit(model, prepared, start, options, model_points=points)
     ours = (time.perf_counter() - t0) / result.iterations
     print("# ICP iteration, 10 000 model points, 50 000 target points, 2 cores\n")
     print(f"hullcap articulated (35 DOF, LM, point-to-plane, Lorentzian): {1000 * ours:.2f} ms per iteration "

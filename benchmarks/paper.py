@@ -26,7 +26,7 @@ import cv2  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from hullcap import BodyModel, LinkModel, PoseParameters, Surface, fit  # noqa: E402
+from hullcap import BodyModel, FitOptions, LinkModel, PoseParameters, Surface, fit  # noqa: E402
 from hullcap.fitting import yaw_rotation  # noqa: E402
 from hullcap._implicit import field_mesh, round_cone, smooth_union  # noqa: E402
 from hullcap.cameras import Camera, look_at  # noqa: E402
@@ -92,8 +92,8 @@ def experiment_two_joint(rng, trials: int):
             target = Surface(noisy, model.faces, posed.normals)
             start = PoseParameters(truth + np.radians(rng.normal(0, 10, 3)))
             for name, m in (("deformable", model), ("rigid", rigid)):
-                r = fit(m, target, start, model_points=np.arange(len(m.vertices)), sigma_min=max(sigma, 0.002),
-                        iterations=20, rounds=6)
+                r = fit(m, target, start, FitOptions(sigma_min=max(sigma, 0.002), iterations=20, rounds=6),
+                        model_points=np.arange(len(m.vertices)))
                 errs[name].append(angle_error_deg(r.pose.theta, truth) + np.degrees(
                     np.arccos(np.clip((np.trace(r.pose.root_rotation) - 1) / 2, -1, 1))) / 3)
                 dists[name].append(r.mean_residual)
@@ -208,7 +208,7 @@ def run_sweep(model, cases, **options):
             posed = model.pose(truth, np.eye(3), (0, 0, 0.97))
             target = Surface(posed.vertices, model.faces, posed.normals)
             t0 = time.perf_counter()
-            r = fit(model, target, start, **options)
+            r = fit(model, target, start, FitOptions(**options))
             secs.append(time.perf_counter() - t0)
             got = model.pose(r.pose.theta, r.pose.root_rotation, r.pose.root_translation)
             e = np.linalg.norm(got.joints - posed.joints, axis=1).mean() * 1000
@@ -252,7 +252,7 @@ def typical_fits(model, cases, magnitude, variants: dict, path):
     target = Surface(posed.vertices, model.faces, posed.normals)
     shown = {}
     for label, options in variants.items():
-        r = fit(model, target, start, **options)
+        r = fit(model, target, start, FitOptions(**options))
         got = model.pose(r.pose.theta, r.pose.root_rotation, r.pose.root_translation)
         err = np.linalg.norm(got.joints - posed.joints, axis=1).mean() * 1000
         shown[f"{label}: {err:.0f} mm"] = (got.vertices, posed.vertices)

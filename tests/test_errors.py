@@ -37,6 +37,8 @@ def test_each_kind_of_fault_raises_its_own_class(tmp_path):
         hullcap.load_result(tmp_path / "out")
     with pytest.raises(errors.OptionsError, match="voxel_size"):
         hullcap.TrackerOptions(voxel_size=0)
+    with pytest.raises(errors.OptionsError, match="FitOptions.solver"):
+        hullcap.FitOptions().replace(solver="newton")
 
 
 def test_engine_errors_arrive_as_their_kind():

@@ -1,8 +1,8 @@
 """Type stubs of the Rust extension module ``hullcap._engine``.
 
 Errors: bad input raises the class of its kind from :mod:`hullcap.errors` (``FitError``
-for targets, trees and fits, ``ModelError`` for meshes, rigs and shapes; each a
-``ValueError``), argument arrays of the wrong shape ``ValueError``, and a fault of the
+for targets, trees and fits, ``ModelError`` for meshes, rigs and shapes, ``OptionsError``
+for ``FitOptions``; each a ``ValueError``), argument arrays of the wrong shape ``ValueError``, and a fault of the
 engine itself ``EngineError``."""
 
 from typing import Literal, final
@@ -196,7 +196,7 @@ def rasterize(
 class FitOptions:
     """Options of ``fit`` and ``fit_shape``; defaults are the engine's own. Distances in
     metres, angles in radians. Fields can be set; ``replace(**changes)`` returns a checked
-    copy, and every value is checked again when a fit uses it (``ValueError`` naming the
+    copy, and every value is checked again when a fit uses it (``OptionsError`` naming the
     field)."""
 
     residual: Literal["point_to_point", "point_to_plane"]

@@ -76,7 +76,7 @@ def _demo(args) -> int:
         for stage in ("silhouettes", "hull", "fit"):
             s = result.seconds.get(stage, 0.0)
             print(f"  {stage:<28} {n / s if s else float('inf'):6.1f} frames/s  ({1000 * s / n:.0f} ms per frame)")
-        print(f"  subject model (frame 0)      {result.seconds.get('subject', 0):6.2f} s")
+        print(f"  subject model (built, refined) {result.seconds.get('subject', 0):5.1f} s")
         print(f"  whole pipeline               {n / track_s:6.1f} frames/s")
         if args.out:
             print(f"\nsequence in {seq_path}, results in {root / 'result'}")

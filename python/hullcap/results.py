@@ -50,7 +50,8 @@ class TrackingResult:
             fit statistics (:class:`~hullcap.fitting.FitResult`).
         iterations: (F,) ICP iterations spent on the frame, searches included.
         link_counts: (F, L, 4) each frame's per-link counts (``FitResult.link_counts``).
-        seconds: seconds spent per stage (silhouettes, hull, fit, subject).
+        seconds: seconds spent per stage of tracking the sequence (silhouettes, hull, fit), and
+            on the subject's model (its frames and calibration pass included: "subject").
     """
 
     model: BodyModel

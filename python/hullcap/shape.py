@@ -158,13 +158,10 @@ def _projectors(links, j):
 
 
 def _across_axis(links, j, axis):
-    """The projector on the body axis `axis` (0 = x, 1 = y) made perpendicular to link
-    j's segment: its width (x) or depth (y) direction."""
-    along, across = _projectors(links, j)
-    e = across @ np.eye(3)[axis]
-    if axis == 1:  # depth: perpendicular to both the segment and the width direction
-        u = links.segments[j, 1] - links.segments[j, 0]
-        w = across @ np.eye(3)[0]
-        e = np.cross(u, w)
+    """The projector on link j's width (`axis` 0: the body's x made perpendicular to the
+    segment) or depth (`axis` 1: perpendicular to both the segment and the width)."""
+    _, across = _projectors(links, j)
+    width = across @ np.eye(3)[0]
+    e = width if axis == 0 else np.cross(links.segments[j, 1] - links.segments[j, 0], width)
     e = e / np.linalg.norm(e)
     return np.outer(e, e)

@@ -267,8 +267,11 @@ class Tracker:
         n = len(self.sequence) if frames is None else min(frames, len(self.sequence))
         result, start = self._resume(out, n) if resume else (None, 0)
         if result is None:
-            t0 = time.perf_counter()
+            t0, before = time.perf_counter(), dict(self.seconds)
             model, start, anchor = self._subject(n, show_progress)
+            # The subject's frames (the calibration pass too) count as 'subject' only, so
+            # that the per-stage seconds are those of tracking the sequence once.
+            self.seconds = defaultdict(float, before)
             self.seconds["subject"] += time.perf_counter() - t0
             model.save(out / "model")
             result = TrackingResult.empty(model, n, self.sequence.fps)

@@ -12,6 +12,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 pyo3::import_exception!(hullcap.errors, ModelError);
 pyo3::import_exception!(hullcap.errors, FitError);
 pyo3::import_exception!(hullcap.errors, EngineError);
+pyo3::import_exception!(hullcap.errors, OptionsError);
 
 /// An engine error and the Python exception class it becomes.
 pub(crate) trait IntoPyErr {

@@ -2,9 +2,9 @@
 //! the engine's own (`hullcap_icp::FitOptions::default()`), so no number is repeated on
 //! the Python side. Distances in metres, angles in radians.
 
+use crate::call::OptionsError;
 use hullcap_icp::{FitOptions as EngineOptions, Residual, Solver};
 use hullcap_kdtree::Gate;
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -74,13 +74,13 @@ fn solver_name(s: Solver) -> &'static str {
 }
 
 impl FitOptions {
-    /// The engine's options, every value checked (`ValueError` naming the field).
+    /// The engine's options, every value checked (`hullcap.errors.OptionsError` naming the field).
     pub(crate) fn engine(&self) -> PyResult<EngineOptions> {
         let residual = match self.residual.as_str() {
             "point_to_point" => Residual::PointToPoint,
             "point_to_plane" => Residual::PointToPlane,
             other => {
-                return Err(PyValueError::new_err(format!(
+                return Err(OptionsError::new_err(format!(
                     "FitOptions.residual must be 'point_to_point' or 'point_to_plane', got {other:?}"
                 )));
             }
@@ -89,13 +89,13 @@ impl FitOptions {
             "lm" => Solver::LevenbergMarquardt,
             "cg" => Solver::ConjugateGradient,
             other => {
-                return Err(PyValueError::new_err(format!(
+                return Err(OptionsError::new_err(format!(
                     "FitOptions.solver must be 'lm' or 'cg', got {other:?}"
                 )));
             }
         };
         if self.model_points == 0 {
-            return Err(PyValueError::new_err(
+            return Err(OptionsError::new_err(
                 "FitOptions.model_points must be at least 1",
             ));
         }
@@ -120,7 +120,7 @@ impl FitOptions {
         };
         options
             .validate()
-            .map_err(|e| PyValueError::new_err(format!("FitOptions.{e}")))?;
+            .map_err(|e| OptionsError::new_err(format!("FitOptions.{e}")))?;
         Ok(options)
     }
 
