@@ -18,6 +18,21 @@ def test_api_tour_runs(tmp_path, monkeypatch):
     assert (tmp_path / "subject_model" / "links.json").is_file()
 
 
+def test_readme_snippet_runs_on_the_readme_sequence(tmp_path, monkeypatch):
+    """The README's Python snippet, on a sequence made as the README's `hullcap synth` makes
+    it (colour frames and backgrounds, no silhouettes), shortened to a few frames."""
+    from hullcap.cli import main
+
+    text = (DOCS.parent / "README.md").read_text()
+    (block,) = re.findall(r"```python\n(.*?)```", text, re.S)
+    monkeypatch.chdir(tmp_path)
+    assert main(["synth", "SEQ", "--frames", "3", "--cameras", "6", "--subject", "short"]) == 0
+    namespace: dict = {}
+    exec(compile(block, "README.md", "exec"), namespace)
+    assert (tmp_path / "OUT" / "joints.csv").is_file()
+    assert len(namespace["masks"]) == 6 and namespace["fitted"].iterations > 0
+
+
 def test_cli_reference_is_current(monkeypatch):
     from hullcap.cli import reference
 

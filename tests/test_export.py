@@ -38,7 +38,12 @@ def forward_kinematics(mocap, frame):
     return {n: t for n, (_, t) in world.items()}
 
 
-def test_bvh_read_by_an_independent_parser_reproduces_the_joints(tmp_path):
+@pytest.mark.parametrize("up, units", [("y", "m"), ("y", "cm"), ("z", "m")])
+def test_bvh_read_by_an_independent_parser_reproduces_the_joints(tmp_path, up, units):
+    """Read as Blender reads it by default (y up), the skeleton stands: head above pelvis
+    along +y, and every joint is ours under (x, y, z) → (x, z, −y)."""
+    from hullcap.export._motion import Z_UP_TO_Y_UP
+
     model = BodyModel.template().scaled({"l_thigh": 1.1, "r_thigh": 1.1}, {"torso": 0.9})
     rng = np.random.default_rng(5)
     lim = model.link_model.dof_limits
@@ -47,15 +52,31 @@ def test_bvh_read_by_an_independent_parser_reproduces_the_joints(tmp_path):
     angles = rng.uniform(-np.pi, np.pi, frames)
     R = np.array([rot("z", np.degrees(a)) @ rot("x", 10) for a in angles])
     t = rng.normal(0, 0.5, (frames, 3)) + (0, 0, 1)
-    write_bvh(tmp_path / "motion.bvh", model, t, R, theta, fps=30)
+    write_bvh(tmp_path / "motion.bvh", model, t, R, theta, fps=30, up=up, units=units)
     mocap = bvh.Bvh((tmp_path / "motion.bvh").read_text())
     assert mocap.nframes == frames and abs(mocap.frame_time - 1 / 30) < 1e-7
     assert set(mocap.get_joints_names()) == set(model.joint_names)
+    C = Z_UP_TO_Y_UP if up == "y" else np.eye(3)
+    scale = {"m": 1.0, "cm": 100.0}[units]
     for f in range(frames):
         ours = model.pose(theta[f], R[f], t[f]).joints
         theirs = forward_kinematics(mocap, f)
         for name, p in zip(model.joint_names, ours):
-            assert np.linalg.norm(theirs[name] - p) < 1e-3, (f, name)
+            assert np.linalg.norm(theirs[name] - scale * C @ p) < 1e-3 * scale, (f, name)
+    rest = forward_kinematics(mocap, 0)
+    vertical = 1 if up == "y" else 2
+    axis = np.argmax(np.abs(rest["head"] - rest["pelvis"]))
+    assert axis == vertical
+
+
+def test_bvh_rejects_an_unknown_convention(tmp_path):
+    from hullcap.errors import OptionsError
+
+    model = BodyModel.template()
+    with pytest.raises(OptionsError, match="up axis"):
+        write_bvh(tmp_path / "m.bvh", model, np.zeros((1, 3)), np.eye(3)[None], np.zeros((1, 29)), 30, up="x")
+    with pytest.raises(OptionsError, match="units"):
+        write_bvh(tmp_path / "m.bvh", model, np.zeros((1, 3)), np.eye(3)[None], np.zeros((1, 29)), 30, units="mm")
 
 
 def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
@@ -94,6 +115,13 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert main(["export", str(tmp_path / "out"), "--format", "bvh", "--to", str(tmp_path / "m.bvh")]) == 0
     mocap = bvh.Bvh((tmp_path / "m.bvh").read_text())
     assert mocap.nframes == 3
+    assert main(["export", str(tmp_path / "out"), "--format", "trc"]) == 0
+    header = (tmp_path / "out" / "joints.trc").read_text().splitlines()[2].split("\t")
+    assert header[2:5] == ["3", "21", "mm"]
+    assert main(["export", str(tmp_path / "out"), "--format", "glb", "--up", "z"]) == 2
+    assert "apply to bvh and trc" in capsys.readouterr().err
+    assert main(["export", str(tmp_path / "out"), "--format", "trc", "--units", "cm"]) == 2
+    assert "TRC units" in capsys.readouterr().err
     assert main(["export", str(tmp_path / "nothing"), "--format", "bvh"]) == 2
     assert "not a body model folder" in capsys.readouterr().err
 
@@ -124,7 +152,8 @@ def _matrix(translation=None, rotation=None):
 
 def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path):
     pygltflib = pytest.importorskip("pygltflib", reason="the independent glTF reader (pip install pygltflib)")
-    from hullcap.export.gltf import Z_UP_TO_Y_UP, write_glb
+    from hullcap.export._motion import Z_UP_TO_Y_UP
+    from hullcap.export.gltf import write_glb
 
     model = BodyModel.template().scaled({"torso": 1.05}, {"l_thigh": 0.9})
     rng = np.random.default_rng(11)
@@ -186,3 +215,29 @@ def test_c3d_round_trip(tmp_path):
     assert np.isnan(back[4]).all()
     with pytest.raises(ValueError, match="joints must have shape"):
         write_c3d(tmp_path / "x.c3d", model.joint_names, joints[:, :3], fps=50)
+
+
+@pytest.mark.parametrize("up, units", [("y", "mm"), ("z", "m")])
+def test_trc_read_by_an_independent_reader(tmp_path, up, units):
+    """OpenSim's marker file, read back by trc-data-reader: markers named as our joints, the
+    frame rate, the units, y up by default, and a failed frame as missing."""
+    trc = pytest.importorskip("trc", reason="the independent TRC reader (pip install trc-data-reader)")
+    from hullcap.export import write_trc
+    from hullcap.export._motion import Z_UP_TO_Y_UP
+
+    names = ["pelvis", "head", "l_wrist"]
+    joints = np.random.default_rng(2).normal(0, 1, (5, 3, 3))
+    joints[3] = np.nan
+    write_trc(tmp_path / "joints.trc", names, joints, 25.0, units=units, up=up)
+    data = trc.TRCData()
+    data.load(str(tmp_path / "joints.trc"))
+    assert data["Markers"] == names and data["NumFrames"] == 5 and data["DataRate"] == 25
+    assert data["Units"] == units and data["Frame#"] == [1, 2, 3, 4, 5]
+    assert np.allclose(data["Time"], np.arange(5) / 25)
+    C = Z_UP_TO_Y_UP if up == "y" else np.eye(3)
+    scale = 1000.0 if units == "mm" else 1.0
+    for j, name in enumerate(names):
+        theirs = np.array(data[name])
+        assert np.isnan(theirs[3]).all()
+        good = [0, 1, 2, 4]
+        assert np.allclose(theirs[good], scale * joints[good, j] @ C.T, atol=1e-5 * scale)

@@ -8,7 +8,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from hullcap.errors import HullcapError
+from hullcap.errors import HullcapError, OptionsError
 
 __all__ = ["main"]
 
@@ -84,7 +84,7 @@ def _demo(args) -> int:
 
 
 def _export(args) -> int:
-    from hullcap.export import write_bvh, write_c3d, write_glb
+    from hullcap.export import write_bvh, write_c3d, write_glb, write_trc
     from hullcap.results import load_result, smooth_joints, write_joints_csv
 
     result = load_result(args.out)
@@ -92,11 +92,16 @@ def _export(args) -> int:
         result = result.interpolated()
     if args.smooth:
         result.joints = smooth_joints(result.joints, result.fps, args.smooth)
-    names = {"bvh": "motion.bvh", "glb": "model.glb", "c3d": "joints.c3d", "csv": "joints.csv"}
+    names = {"bvh": "motion.bvh", "glb": "model.glb", "c3d": "joints.c3d", "csv": "joints.csv", "trc": "joints.trc"}
     target = Path(args.to) if args.to else Path(args.out) / names[args.format]
     motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
+    convention = {k: v for k, v in (("up", args.up), ("units", args.units)) if v}
+    if convention and args.format not in ("bvh", "trc"):
+        raise OptionsError(f"--up and --units apply to bvh and trc, not {args.format}")
     if args.format == "bvh":
-        write_bvh(target, *motion)
+        write_bvh(target, *motion, **convention)
+    elif args.format == "trc":
+        write_trc(target, result.model.joint_names, result.joints, result.fps, **convention)
     elif args.format == "glb":
         write_glb(target, *motion)
     elif args.format == "c3d":
@@ -120,7 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
     from hullcap.motions import MOTIONS
     from hullcap.synth import SUBJECTS
 
+    from hullcap import __version__
+
     ap = argparse.ArgumentParser(prog="hullcap", description="Markerless motion capture from calibrated multi-view video.")
+    ap.add_argument("--version", action="version", version=f"hullcap {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
 
     t = sub.add_parser("track", help="track a sequence folder", description=(
@@ -171,9 +179,15 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
         "Write a finished run's motion (its pose.npz and model/) in another format."))
     e.add_argument("out", help="the results folder of a `hullcap track` run")
-    e.add_argument("--format", choices=["bvh", "glb", "c3d", "csv"], required=True,
+    e.add_argument("--format", choices=["bvh", "glb", "c3d", "trc", "csv"], required=True,
                    help="bvh: motion.bvh (Blender, MotionBuilder); glb: model.glb (skinned mesh + motion); "
-                        "c3d: joints.c3d (biomechanics tools; needs ezc3d); csv: joints.csv")
+                        "c3d: joints.c3d (biomechanics tools; needs ezc3d); trc: joints.trc (OpenSim markers); "
+                        "csv: joints.csv")
+    e.add_argument("--up", choices=["y", "z"],
+                   help="bvh, trc: the up axis (default y, what Blender's importer and OpenSim assume; "
+                        "z: our world as in joints.csv)")
+    e.add_argument("--units", choices=["m", "cm", "mm"],
+                   help="bvh: m (default) or cm; trc: mm (default) or m")
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
     _output_options(e)
     e.set_defaults(run=_export)

@@ -7,6 +7,9 @@ import numpy as np
 
 from hullcap.errors import ResultsError
 
+Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
+"""(x, y, z) ours (z up) → (x, z, −y) in the y-up convention of BVH and glTF: −90° about x."""
+
 
 def local_motion(path, model, root_translation, root_rotation, theta) -> tuple[np.ndarray, np.ndarray]:
     """``(local (F, L, 3, 3), root_position (F, 3))``: every link's rotation relative to

@@ -4,9 +4,13 @@ One BVH joint per canonical joint (docs/design.md §1), named as in ``joints.csv
 link's centre of rotation carry that link's rotation relative to its parent; sites (chest,
 head, wrists, toes) are joints with rotation channels that stay zero, so that every
 canonical joint appears by name. Offsets come from the subject's model; the root carries
-its world position. Units are metres and the world is ours (z up, docs/formats.md): in Blender,
-import with "Forward: -Y, Up: Z" and scale 1. Rotation channels are in the order
-``Zrotation Xrotation Yrotation`` (R = Rz·Rx·Ry, degrees).
+its world position. Rotation channels are in the order ``Zrotation Xrotation Yrotation``
+(R = Rz·Rx·Ry, degrees).
+
+By default the file is in the convention BVH readers assume (Blender's importer with its
+default settings, MotionBuilder, the CMU files): y up, our (x, y, z) written as
+(x, z, −y), in metres. ``up="z"`` writes our own world unchanged (import into Blender with
+"Up: Z"); ``units="cm"`` scales offsets and positions by 100.
 """
 
 from __future__ import annotations
@@ -16,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
-from hullcap.export._motion import local_motion
+from hullcap.errors import OptionsError
+from hullcap.export._motion import Z_UP_TO_Y_UP, local_motion
 
 __all__ = ["write_bvh", "bvh_skeleton", "zxy_degrees"]
 
@@ -65,11 +70,26 @@ def zxy_degrees(R: np.ndarray) -> np.ndarray:
     return np.degrees(np.stack([z, x, y], -1))
 
 
-def write_bvh(path, model, root_translation, root_rotation, theta, fps: float) -> None:
+UNITS = {"m": 1.0, "cm": 100.0}
+UP_AXES = ("y", "z")
+
+
+def write_bvh(path, model, root_translation, root_rotation, theta, fps: float, *, up: str = "y",
+              units: str = "m") -> None:
     """Write the motion (F frames of root placement and joint angles; failed frames, NaN,
-    repeat the last good one) as BVH, atomically."""
+    repeat the last good one) as BVH, atomically: `up` "y" (what readers assume) or "z"
+    (our world), lengths in `units` "m" or "cm"."""
+    if up not in UP_AXES:
+        raise OptionsError(f"BVH up axis must be one of {UP_AXES}, got {up!r}")
+    if units not in UNITS:
+        raise OptionsError(f"BVH units must be one of {tuple(UNITS)}, got {units!r}")
     names, parents, offsets, carries = bvh_skeleton(model)
     local, root_position = local_motion(path, model, root_translation, root_rotation, theta)
+    # A change of axes C maps every position p to C·p and every rotation R to C·R·Cᵀ.
+    C = Z_UP_TO_Y_UP if up == "y" else np.eye(3)
+    local = C @ local @ C.T
+    offsets = UNITS[units] * offsets @ C.T
+    root_position = UNITS[units] * root_position @ C.T
     frames = len(local)
     angles = zxy_degrees(local)  # (F, L, 3)
     values = []

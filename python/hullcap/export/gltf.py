@@ -17,12 +17,10 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
-from hullcap.export._motion import local_motion
+from hullcap.export._motion import Z_UP_TO_Y_UP, local_motion
 
-__all__ = ["write_glb", "Z_UP_TO_Y_UP"]
+__all__ = ["write_glb"]
 
-Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-"""(x, y, z) ours → (x, z, −y) glTF: a −90° turn about x."""
 
 _FLOAT, _UINT16, _UINT32 = 5126, 5123, 5125
 
