@@ -122,10 +122,9 @@ def _output_options(p) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from hullcap import __version__
     from hullcap.motions import MOTIONS
     from hullcap.synth import SUBJECTS
-
-    from hullcap import __version__
 
     ap = argparse.ArgumentParser(prog="hullcap", description="Markerless motion capture from calibrated multi-view video.")
     ap.add_argument("--version", action="version", version=f"hullcap {__version__}")
