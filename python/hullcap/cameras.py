@@ -19,7 +19,15 @@ import numpy as np
 from hullcap._files import atomic_write, read_document
 from hullcap.errors import CalibrationError
 
-__all__ = ["Camera", "Cameras", "ring"]
+__all__ = ["Camera", "Cameras", "ring", "parse_size", "check_principal_point"]
+
+ROTATION_TOLERANCE = 1e-3
+"""Largest |RRᵀ − I| accepted for a camera's rotation: calibration files round (5 decimals
+give about 1e-5), and the nearest rotation is used; a real non-rotation is far beyond."""
+
+PRINCIPAL_POINT_TOLERANCE = 0.25
+"""An imported camera whose principal point lies further than this fraction of the image's
+width or height from its centre is refused: the image size is most likely swapped."""
 
 _Y_UP_TO_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
 """Maps a y-up world (x right, y up, z towards the viewer) to ours (z up)."""
@@ -70,9 +78,15 @@ class Camera:
         if not (K[0, 0] > 0 and K[1, 1] > 0):
             raise CalibrationError(f"{where}: K's focal lengths must be positive, got {K[0, 0]}, {K[1, 1]}")
         R = self.R
-        if np.abs(R @ R.T - np.eye(3)).max() > 1e-6 or not np.linalg.det(R) > 0:
+        error = np.abs(R @ R.T - np.eye(3)).max()
+        if error > ROTATION_TOLERANCE or not np.linalg.det(R) > 0:
             raise CalibrationError(f"{where}: R is not a rotation (det = {np.linalg.det(R):.4g}, "
-                             f"|RRᵀ − I| = {np.abs(R @ R.T - np.eye(3)).max():.2g})")
+                                   f"|RRᵀ − I| = {error:.2g}, more than {ROTATION_TOLERANCE:g})")
+        if error > 1e-9:  # written with few decimals: the nearest rotation (rounding noise kept as is)
+            u, _, vt = np.linalg.svd(R)
+            R = u @ vt
+            R.setflags(write=False)
+            object.__setattr__(self, "R", R)
 
     @property
     def centre(self) -> np.ndarray:
@@ -127,6 +141,8 @@ class Cameras(Sequence[Camera]):
             raise CalibrationError(f"camera names must be unique; repeated: {sorted(dup)}")
         if not self._cameras:
             raise CalibrationError("no cameras")
+        self._memo: dict = {}
+        """What is derived from the calibration alone (the capture volume), computed once."""
 
     def __len__(self) -> int:
         return len(self._cameras)
@@ -189,8 +205,13 @@ class Cameras(Sequence[Camera]):
         or the Rodrigues ``R_<cam>``, ``T_<cam>``), metres.
 
         Args:
-            image_size: ``(width, height)`` for files that do not store it.
+            image_size: for files that do not store it: ``(width, height)``, ``"WxH"``, or
+                a dict of either per camera name.
             up: the world's up axis in the files, ``"z"`` (ours) or ``"y"``.
+
+        Raises:
+            CalibrationError: naming the file and camera; also when a camera's principal
+                point is far from its image's centre (a swapped width and height).
         """
         fi, fe = _storage(intri), _storage(extri)
         try:
@@ -204,10 +225,44 @@ class Cameras(Sequence[Camera]):
                     rot = cv2.Rodrigues(_yml_mat(fe, f"R_{n}", extri).reshape(3, 1))[0]
                 T = _yml_mat(fe, f"T_{n}", extri).reshape(3)
                 w, h = _yml_size(fi, n, image_size, intri)
-                cams.append(_with_up(n, w, h, K, dist, rot, T, up))
+                try:
+                    cams.append(_with_up(n, w, h, K, dist, rot, T, up))
+                except CalibrationError as e:
+                    raise CalibrationError(f"{intri}: {e}") from None
         finally:
             fi.release()
             fe.release()
+        return cls(cams)
+
+    @classmethod
+    def from_opencv(cls, paths, image_size=None, up: str = "z") -> Cameras:
+        """Import one OpenCV FileStorage file (YAML or XML) per camera, named after the file:
+        ``camera_matrix`` (or ``K``), ``distortion_coefficients`` (or ``dist``), the
+        world → camera rotation as ``R`` (3×3, or a Rodrigues vector) or ``rvec``, the
+        translation ``T`` or ``tvec`` (metres), and ``image_width``/``image_height`` when the
+        file has them (as ``cv2.calibrateCamera``'s samples write). `image_size` and `up`
+        as in :meth:`from_easymocap`."""
+        cams = []
+        for path in map(Path, paths):
+            fs = _storage(path)
+            try:
+                K = _yml_first(fs, ("camera_matrix", "K"), path)
+                dist = _yml_first(fs, ("distortion_coefficients", "dist", "D"), path, required=False)
+                rot = _yml_first(fs, ("R", "rvec", "Rot"), path)
+                if rot.size == 3:
+                    rot = cv2.Rodrigues(rot.reshape(3, 1))[0]
+                T = _yml_first(fs, ("T", "tvec", "t"), path).reshape(-1)
+                if T.size != 3:
+                    raise CalibrationError(f"{path}: the translation must have 3 values, got {T.size}")
+                h, w = fs.getNode("image_height"), fs.getNode("image_width")
+                size = (int(w.real()), int(h.real())) if not (h.empty() or w.empty()) else \
+                    _size_for(image_size, path.stem, path)
+            finally:
+                fs.release()
+            try:
+                cams.append(_with_up(path.stem, *size, K, dist, rot.reshape(3, 3), T, up))
+            except CalibrationError as e:
+                raise CalibrationError(f"{path}: {e}") from None
         return cls(cams)
 
     @classmethod
@@ -229,12 +284,51 @@ class Cameras(Sequence[Camera]):
                 w, h = c["size"]
                 cams.append(_with_up(str(c.get("name", key)), int(w), int(h), c["matrix"],
                                      c.get("distortions", []), R, c["translation"], up))
+            except CalibrationError as e:
+                raise CalibrationError(f"{path}: {e}") from None
             except (KeyError, TypeError, ValueError) as e:
                 raise CalibrationError(f"{path}: camera [{key}]: {e!r}") from None
         return cls(cams)
 
 
+def parse_size(size, where="image size") -> tuple[int, int]:
+    """``(width, height)`` from a pair or a ``"WxH"`` string."""
+    if isinstance(size, str):
+        parts = size.lower().replace("×", "x").split("x")
+    else:
+        parts = list(size) if isinstance(size, (tuple, list, np.ndarray)) else [size]
+    try:
+        w, h = (int(p) for p in parts)
+    except (TypeError, ValueError):
+        raise CalibrationError(f"{where}: expected (width, height) or 'WIDTHxHEIGHT', got {size!r}") from None
+    if w <= 0 or h <= 0:
+        raise CalibrationError(f"{where}: width and height must be positive, got {w}×{h}")
+    return w, h
+
+
+def _size_for(image_size, name, path) -> tuple[int, int]:
+    """Camera `name`'s size from the `image_size` argument of an import."""
+    if isinstance(image_size, dict):
+        image_size = image_size.get(name)
+    if image_size is None:
+        raise CalibrationError(f"{path}: no image size for camera {name!r}; pass image_size=(width, height)")
+    return parse_size(image_size, f"{path}: camera {name!r}")
+
+
+def check_principal_point(camera: Camera) -> None:
+    """Refuse a camera whose principal point is far from its image's centre: the sign of
+    a width and height given the wrong way round (1080×1920 for a 1920×1080 camera)."""
+    cx, cy = camera.K[0, 2], camera.K[1, 2]
+    w, h = camera.width, camera.height
+    if abs(cx - (w - 1) / 2) > PRINCIPAL_POINT_TOLERANCE * w or abs(cy - (h - 1) / 2) > PRINCIPAL_POINT_TOLERANCE * h:
+        hint = " (width and height swapped?)" if abs(cx - (h - 1) / 2) <= PRINCIPAL_POINT_TOLERANCE * h and \
+            abs(cy - (w - 1) / 2) <= PRINCIPAL_POINT_TOLERANCE * w else ""
+        raise CalibrationError(f"camera {camera.name!r}: principal point ({cx:.0f}, {cy:.0f}) is far from the centre "
+                               f"of a {w}×{h} image{hint}")
+
+
 def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
+    """A camera imported from another tool's files: axes converted, size checked."""
     if up not in ("z", "y"):
         raise CalibrationError(f"up must be 'z' or 'y', got {up!r}")
     R = np.asarray(R, float)
@@ -243,7 +337,9 @@ def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
     dist = np.ravel(np.asarray(dist if dist is not None else [], float))
     if dist.size > 5:
         raise CalibrationError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] are supported")
-    return Camera(name, w, h, K, dist, R, t)  # Camera pads [k1 k2 p1 p2] with k3 = 0
+    camera = Camera(name, w, h, K, dist, R, t)  # Camera pads [k1 k2 p1 p2] with k3 = 0
+    check_principal_point(camera)
+    return camera
 
 
 def _storage(path) -> cv2.FileStorage:
@@ -275,13 +371,22 @@ def _yml_mat(fs, key, path, required=True):
     return np.asarray(m, float)
 
 
+def _yml_first(fs, keys, path, required=True):
+    """The first of `keys` the file has, as a matrix."""
+    for key in keys:
+        m = _yml_mat(fs, key, path, required=False)
+        if m is not None:
+            return m
+    if required:
+        raise CalibrationError(f"{path}: none of {list(keys)}")
+    return None
+
+
 def _yml_size(fs, name, image_size, path):
     h, w = fs.getNode(f"H_{name}"), fs.getNode(f"W_{name}")
     if not h.empty() and not w.empty():
         return int(w.real()), int(h.real())
-    if image_size is None:
-        raise CalibrationError(f"{path}: no H_{name}/W_{name}; pass image_size=(width, height)")
-    return image_size
+    return _size_for(image_size, name, path)
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:

@@ -15,6 +15,7 @@ __all__ = ["main"]
 
 def _track(args) -> int:
     from hullcap.body import BodyModel
+    from hullcap.hull import format_bounds
     from hullcap.results import RECOVERED
     from hullcap.sequence import Sequence
     from hullcap.tracking import Tracker, TrackerOptions
@@ -23,7 +24,9 @@ def _track(args) -> int:
     model = BodyModel.load(args.model) if args.model else None
     options = TrackerOptions(voxel_size=args.voxel, background=args.background,
                              use_silhouettes=not args.ignore_silhouettes, refine_joints=args.refine_joints)
-    tracker = Tracker(seq, model=model, options=options)
+    tracker = Tracker(seq, model=model, options=options, bounds=args.volume)
+    print(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
+          + (" (given)" if args.volume else " (every camera sees it; --volume to change)"))
     result = tracker.run(args.out, resume=not args.restart, frames=args.frames, interpolate=args.interpolate,
                          smooth_hz=args.smooth)
     from hullcap.export import write_overlays, write_report
@@ -112,6 +115,45 @@ def _export(args) -> int:
     return 0
 
 
+def _calib_import(args) -> int:
+    from hullcap.cameras import parse_size
+    from hullcap.rig import describe, image_sizes, import_calibration
+
+    size = None
+    if args.size:
+        size = parse_size(args.size, "--size")
+    elif args.images:
+        size = image_sizes(args.images)
+    cameras = import_calibration(args.kind, args.sources, image_size=size, up=args.up)
+    cameras.save(args.out)
+    print(describe(cameras))
+    print(f"\n{args.out}: {len(cameras)} cameras written")
+    return 0
+
+
+def _calib_show(args) -> int:
+    from hullcap.cameras import Cameras
+    from hullcap.rig import describe, draw_top_view
+
+    cameras = Cameras.load(args.cameras)
+    print(describe(cameras))
+    picture = Path(args.picture) if args.picture else Path(args.cameras).with_suffix(".png")
+    draw_top_view(picture, cameras)
+    print(f"top view of the rig: {picture}")
+    return 0
+
+
+def _volume(text: str):
+    """``--volume x0,y0,z0,x1,y1,z1`` → ((x0, y0, z0), (x1, y1, z1))."""
+    try:
+        v = [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {text!r}") from None
+    if len(v) != 6:
+        raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {len(v)}")
+    return (v[:3], v[3:])
+
+
 def _output_options(p) -> None:
     p.add_argument("--interpolate", action="store_true",
                    help="fill failed frames between fitted ones from their neighbours in the outputs "
@@ -141,6 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--background", choices=["statistical", "mog2"], default="statistical",
                    help="background subtraction when the sequence has no silhouettes (default statistical)")
     t.add_argument("--ignore-silhouettes", action="store_true", help="subtract the background even if silhouettes/ exist")
+    t.add_argument("--volume", type=_volume, metavar="X0,Y0,Z0,X1,Y1,Z1",
+                   help="the capture volume to carve the hull in, metres (default: what every camera sees)")
     t.add_argument("--frames", type=int, help="track only the first N frames")
     t.add_argument("--restart", action="store_true", help="start over instead of resuming")
     t.add_argument("--no-overlay", action="store_true", help="skip the overlay videos (overlay/<cam>.mp4)")
@@ -174,6 +218,28 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--out", help="keep the sequence and results here (default: a temporary folder)")
     d.set_defaults(run=_demo)
+
+    c = sub.add_parser("calib", help="import a calibration, or show a rig", description=(
+        "Import other tools' calibrations into cameras.json, or describe one: each camera's centre, "
+        "viewing direction and size, the capture volume, and a top-view picture of the rig."))
+    csub = c.add_subparsers(dest="calib_command", required=True)
+    ci = csub.add_parser("import", help="write cameras.json from EasyMocap, Pose2Sim or OpenCV files",
+                         description="Write cameras.json from another tool's calibration files.")
+    ci.add_argument("--from", dest="kind", choices=["easymocap", "pose2sim", "opencv"], required=True,
+                    help="easymocap: intri.yml extri.yml; pose2sim: Calib*.toml; opencv: one FileStorage "
+                         "file per camera (camera_matrix, distortion_coefficients, R or rvec, T or tvec)")
+    ci.add_argument("sources", nargs="+", help="the calibration files")
+    ci.add_argument("--out", required=True, help="the cameras.json to write")
+    ci.add_argument("--size", metavar="WxH", help="image size of every camera, for files that do not store it")
+    ci.add_argument("--images", metavar="FOLDER",
+                    help="take each camera's image size from one frame of FOLDER/frames/<cam>/ or FOLDER/videos/<cam>.*")
+    ci.add_argument("--up", choices=["z", "y"], default="z", help="the up axis of the files' world (default z)")
+    ci.set_defaults(run=_calib_import)
+    cs = csub.add_parser("show", help="describe a cameras.json and draw the rig from above",
+                         description="Print each camera and the capture volume; write a top view of the rig.")
+    cs.add_argument("cameras", help="a cameras.json")
+    cs.add_argument("--picture", help="the top view to write (default: next to the file, .png)")
+    cs.set_defaults(run=_calib_show)
 
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
         "Write a finished run's motion (its pose.npz and model/) in another format."))

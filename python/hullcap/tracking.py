@@ -39,7 +39,7 @@ from hullcap.body import BodyModel
 from hullcap.errors import OptionsError, TrackingError
 from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
 from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
-from hullcap.hull import HullReport, capture_volume, visual_hull
+from hullcap.hull import HullReport, capture_volume, check_bounds, visual_hull
 from hullcap.progress import progress
 from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
 from hullcap.render import render_depth
@@ -144,11 +144,15 @@ class Tracker:
         options: see :class:`TrackerOptions`.
     """
 
-    def __init__(self, sequence: Sequence, model: BodyModel | None = None, options: TrackerOptions | None = None):
+    def __init__(self, sequence: Sequence, model: BodyModel | None = None, options: TrackerOptions | None = None,
+                 bounds=None):
         self.sequence = sequence
         self.model = model
         self.options = options or TrackerOptions()
-        self._bounds = capture_volume(sequence.cameras)
+        if bounds is None:
+            bounds = capture_volume(sequence.cameras)
+        self.bounds = check_bounds(bounds)
+        """``(lo, hi)``: the capture volume the hull is carved in (metres)."""
         self._backgrounds = None
         self._guided = None
         self.seconds: dict = defaultdict(float)
@@ -241,7 +245,7 @@ class Tracker:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
-                surface = visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self._bounds, report,
+                surface = visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self.bounds, report,
                                       tolerance=tolerance, priors=priors)
             return surface, masks
         finally:
@@ -325,7 +329,9 @@ class Tracker:
             if not options.refine_joints:
                 return subject.model, frame, subject.fit
             return self._refine(subject, frame, n, show_progress)
-        raise TrackingError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start from")
+        last = f"; the last problem: {self.problems[-1]}" if self.problems else ""
+        raise TrackingError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start "
+                            f"from{last}")
 
     def _refine(self, subject, first: int, n: int, show_progress: bool):
         """Track the first seconds with `subject`, fit its proportions and joint centres

@@ -1,0 +1,135 @@
+"""A camera rig at a glance, and calibrations imported from other tools (``hullcap calib``).
+
+:func:`describe` lists each camera's centre, viewing direction, image size and focal
+length and the capture volume every camera sees (:func:`hullcap.hull.capture_volume`);
+:func:`draw_top_view` draws the rig from above with that volume, so that a rig aimed away
+from where the person stands shows at once. :func:`import_calibration` reads EasyMocap,
+Pose2Sim or plain OpenCV files into :class:`~hullcap.cameras.Cameras`, taking image sizes
+from the files, from the caller, or from one frame of each camera's images or video.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from hullcap._files import atomic_write
+from hullcap.cameras import Cameras
+from hullcap.errors import CalibrationError, SequenceError
+from hullcap.hull import axes_meeting_point, capture_volume, format_bounds
+
+__all__ = ["describe", "draw_top_view", "import_calibration", "image_sizes", "FORMATS"]
+
+FORMATS = ("easymocap", "pose2sim", "opencv")
+
+
+def import_calibration(kind: str, sources, image_size=None, up: str = "z") -> Cameras:
+    """Cameras from another tool's files: ``easymocap`` (``intri.yml extri.yml``),
+    ``pose2sim`` (one ``Calib*.toml``) or ``opencv`` (one FileStorage file per camera).
+    `image_size` and `up` as in :meth:`Cameras.from_easymocap`."""
+    sources = [Path(s) for s in sources]
+    want = {"easymocap": 2, "pose2sim": 1}.get(kind)
+    if kind not in FORMATS:
+        raise CalibrationError(f"calibration format must be one of {FORMATS}, got {kind!r}")
+    if (want is not None and len(sources) != want) or not sources:
+        raise CalibrationError(f"{kind} takes {want or 'one or more'} file(s), got {len(sources)}")
+    if kind == "easymocap":
+        return Cameras.from_easymocap(*sources, image_size=image_size, up=up)
+    if kind == "pose2sim":
+        return Cameras.from_pose2sim(sources[0], up=up)
+    return Cameras.from_opencv(sources, image_size=image_size, up=up)
+
+
+def image_sizes(folder) -> dict[str, tuple[int, int]]:
+    """``{camera: (width, height)}`` from one frame of each camera of a sequence-like
+    folder: ``frames/<cam>/`` (first image) or ``videos/<cam>.*``."""
+    folder = Path(folder)
+    sizes = {}
+    for sub in sorted((folder / "frames").glob("*/")) if (folder / "frames").is_dir() else []:
+        first = next((p for p in sorted(sub.iterdir()) if p.suffix.lower() in (".png", ".jpg", ".jpeg")), None)
+        if first is not None:
+            image = cv2.imread(str(first), cv2.IMREAD_UNCHANGED)
+            if image is None:
+                raise SequenceError(f"{first}: cannot be read as an image")
+            sizes[sub.name] = (image.shape[1], image.shape[0])
+    for video in sorted((folder / "videos").glob("*.*")) if (folder / "videos").is_dir() else []:
+        cap = cv2.VideoCapture(str(video))
+        ok, image = cap.read()
+        cap.release()
+        if not ok:
+            raise SequenceError(f"{video}: cannot read its first frame")
+        sizes.setdefault(video.stem, (image.shape[1], image.shape[0]))
+    if not sizes:
+        raise SequenceError(f"{folder}: no frames/<cam>/ images or videos/<cam>.* to take image sizes from")
+    return sizes
+
+
+def describe(cameras: Cameras) -> str:
+    """A table of the cameras and the capture volume, as ``hullcap calib show`` prints."""
+    lines = [f"{len(cameras)} cameras", "",
+             f"{'camera':<12} {'size':>11} {'focal px':>9} {'centre (m)':>24} {'looks along':>22}"]
+    for cam in cameras:
+        c, d = cam.centre, cam.R[2]
+        lines.append(f"{cam.name:<12} {cam.width:>5}×{cam.height:<5} {cam.K[0, 0]:>9.0f} "
+                     f"({c[0]:6.2f}, {c[1]:6.2f}, {c[2]:5.2f}) ({d[0]:6.2f}, {d[1]:6.2f}, {d[2]:5.2f})")
+    lines.append("")
+    meet = axes_meeting_point(cameras)
+    lines.append("axes meet near ({:.2f}, {:.2f}, {:.2f}) m".format(*meet))
+    try:
+        lines.append(f"capture volume (every camera sees it): {format_bounds(capture_volume(cameras))}")
+    except CalibrationError as e:
+        lines.append(f"capture volume: none ({e})")
+    return "\n".join(lines)
+
+
+def draw_top_view(path, cameras: Cameras, bounds=None, size: int = 800) -> None:
+    """Write a picture of the rig seen from above: each camera's centre, viewing direction
+    and horizontal field of view, the capture volume (`bounds`, default every camera's
+    common view) and a 1 m grid; the world's x to the right, y up the picture."""
+    if bounds is None:
+        try:
+            bounds = capture_volume(cameras)
+        except CalibrationError:
+            bounds = None
+    centres = np.array([c.centre[:2] for c in cameras])
+    pts = centres if bounds is None else np.vstack([centres, bounds[0][:2], bounds[1][:2]])
+    lo, hi = pts.min(0) - 1.0, pts.max(0) + 1.0
+    scale = (size - 40) / (hi - lo).max()
+
+    def px(p):
+        p = np.asarray(p, float)
+        return int(round(20 + (p[0] - lo[0]) * scale)), int(round(size - 20 - (p[1] - lo[1]) * scale))
+
+    image = np.full((size, size, 3), 255, np.uint8)
+    for x in np.arange(np.ceil(lo[0]), hi[0] + 1e-9):
+        cv2.line(image, px((x, lo[1])), px((x, hi[1])), (230, 230, 230), 1)
+    for y in np.arange(np.ceil(lo[1]), hi[1] + 1e-9):
+        cv2.line(image, px((lo[0], y)), px((hi[0], y)), (230, 230, 230), 1)
+    cv2.drawMarker(image, px((0, 0)), (120, 120, 120), cv2.MARKER_CROSS, 14, 1)
+    if bounds is not None:
+        cv2.rectangle(image, px(bounds[0][:2]), px(bounds[1][:2]), (40, 160, 40), 2)
+        cv2.putText(image, "capture volume", (px(bounds[0][:2])[0] + 4, px(bounds[0][:2])[1] - 6),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.45, (40, 160, 40), 1, cv2.LINE_AA)
+    reach = 0.6 * (hi - lo).max()
+    for cam in cameras:
+        c = cam.centre[:2]
+        ends = []
+        for u in (0.0, cam.width - 1.0):
+            _, d = cam.rays([[u, (cam.height - 1) / 2]])
+            d = d[0, :2] / max(np.linalg.norm(d[0, :2]), 1e-9)
+            ends.append(px(c + reach * d))
+        cv2.line(image, px(c), ends[0], (200, 170, 120), 1, cv2.LINE_AA)
+        cv2.line(image, px(c), ends[1], (200, 170, 120), 1, cv2.LINE_AA)
+        axis = cam.R[2, :2] / max(np.linalg.norm(cam.R[2, :2]), 1e-9)
+        cv2.arrowedLine(image, px(c), px(c + 0.5 * axis), (160, 60, 20), 2, cv2.LINE_AA, tipLength=0.3)
+        cv2.circle(image, px(c), 5, (160, 60, 20), -1, cv2.LINE_AA)
+        cv2.putText(image, cam.name, (px(c)[0] + 7, px(c)[1] - 7), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
+                    (60, 30, 10), 1, cv2.LINE_AA)
+    cv2.putText(image, "top view, 1 m grid, + = world origin", (10, 18), cv2.FONT_HERSHEY_SIMPLEX, 0.5,
+                (80, 80, 80), 1, cv2.LINE_AA)
+    ok, png = cv2.imencode(".png", image)
+    if not ok:
+        raise CalibrationError(f"{path}: could not encode the picture")
+    atomic_write(Path(path), png.tobytes())
