@@ -7,7 +7,6 @@ and a Pose2Sim rig of four portrait phone cameras (Calib_scene.toml).
 
 import numpy as np
 import pytest
-
 from hullcap import Sequence, Tracker
 from hullcap.cameras import Cameras, look_at
 from hullcap.cli import main

@@ -123,7 +123,7 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert main(["export", str(tmp_path / "out"), "--format", "trc", "--units", "cm"]) == 2
     assert "TRC units" in capsys.readouterr().err
     assert main(["export", str(tmp_path / "nothing"), "--format", "bvh"]) == 2
-    assert "not a body model folder" in capsys.readouterr().err
+    assert "no pose.npz: not the results folder" in capsys.readouterr().err
 
 
 def _accessor(gltf, blob, i):

@@ -11,6 +11,27 @@ from collections.abc import Callable
 from pathlib import Path
 
 
+def _umask() -> int:
+    """The process's umask: from /proc where it is (reading it elsewhere means setting it
+    for a moment)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def publish(tmp, path) -> None:
+    """Move the finished temporary file `tmp` to `path`, with the permissions a file
+    created there would get (0666 less the umask: temporary files are private, 0600)."""
+    os.chmod(tmp, 0o666 & ~_umask())
+    os.replace(tmp, path)
+
+
 def atomic_write(path, data: bytes | Callable[[Path], None]) -> None:
     """Write `data` (bytes, or a function that writes a given temporary path) to `path`
     through a temporary file in the same folder, then rename it into place."""
@@ -24,7 +45,7 @@ def atomic_write(path, data: bytes | Callable[[Path], None]) -> None:
         else:
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -37,8 +58,11 @@ def read_document(path, error: type[Exception] = ValueError) -> dict:
     toml = path.suffix.lower() == ".toml"
     try:
         text = path.read_text()
-        return tomllib.loads(text) if toml else json.loads(text)
+        doc = tomllib.loads(text) if toml else json.loads(text)
     except OSError as e:
         raise error(f"{path}: cannot read ({e.strerror})") from e
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError) as e:
         raise error(f"{path}: not valid {'TOML' if toml else 'JSON'} ({e})") from e
+    if not isinstance(doc, dict):
+        raise error(f"{path}: expected a {'table' if toml else 'JSON object'} at the top, got {type(doc).__name__}")
+    return doc

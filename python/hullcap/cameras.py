@@ -178,14 +178,18 @@ class Cameras(Sequence[Camera]):
             raise CalibrationError(f"{path}: needs a 'cameras' list")
         cams = []
         for i, c in enumerate(spec["cameras"]):
+            if not isinstance(c, dict):
+                raise CalibrationError(f"{path}: camera #{i} is not an object")
             try:
                 missing = [k for k in ("name", "width", "height", "K", "R", "t") if k not in c]
                 if missing:
                     raise CalibrationError(f"camera {c.get('name', f'#{i}')!r}: missing {missing}")
                 cams.append(Camera(c["name"], c["width"], c["height"], c["K"],
                                    c.get("dist", np.zeros(5)), c["R"], c["t"]))
-            except ValueError as e:
+            except CalibrationError as e:
                 raise CalibrationError(f"{path}: {e}") from None
+            except (TypeError, ValueError, OverflowError) as e:
+                raise CalibrationError(f"{path}: camera #{i}: {e}") from None
         try:
             return cls(cams)
         except ValueError as e:
@@ -215,24 +219,14 @@ class Cameras(Sequence[Camera]):
         """
         fi, fe = _storage(intri), _storage(extri)
         try:
-            names = _yml_names(fi, intri)
-            cams = []
-            for n in names:
-                K = _yml_mat(fi, f"K_{n}", intri)
-                dist = _yml_mat(fi, f"dist_{n}", intri, required=False)
-                rot = _yml_mat(fe, f"Rot_{n}", extri, required=False)
-                if rot is None:
-                    rot = cv2.Rodrigues(_yml_mat(fe, f"R_{n}", extri).reshape(3, 1))[0]
-                T = _yml_mat(fe, f"T_{n}", extri).reshape(3)
-                w, h = _yml_size(fi, n, image_size, intri)
-                try:
-                    cams.append(_with_up(n, w, h, K, dist, rot, T, up))
-                except CalibrationError as e:
-                    raise CalibrationError(f"{intri}: {e}") from None
+            return cls(_easymocap_cameras(fi, fe, intri, extri, image_size, up))
+        except CalibrationError:
+            raise
+        except (cv2.error, SystemError, TypeError, ValueError, OverflowError) as e:
+            raise CalibrationError(f"{intri}, {extri}: malformed ({e})") from None
         finally:
             fi.release()
             fe.release()
-        return cls(cams)
 
     @classmethod
     def from_opencv(cls, paths, image_size=None, up: str = "z") -> Cameras:
@@ -257,6 +251,10 @@ class Cameras(Sequence[Camera]):
                 h, w = fs.getNode("image_height"), fs.getNode("image_width")
                 size = (int(w.real()), int(h.real())) if not (h.empty() or w.empty()) else \
                     _size_for(image_size, path.stem, path)
+            except CalibrationError:
+                raise
+            except (cv2.error, SystemError, TypeError, ValueError, OverflowError) as e:
+                raise CalibrationError(f"{path}: malformed ({e})") from None
             finally:
                 fs.release()
             try:
@@ -342,11 +340,31 @@ def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
     return camera
 
 
+def _easymocap_cameras(fi, fe, intri, extri, image_size, up) -> list[Camera]:
+    cams = []
+    for n in _yml_names(fi, intri):
+        K = _yml_mat(fi, f"K_{n}", intri)
+        dist = _yml_mat(fi, f"dist_{n}", intri, required=False)
+        rot = _yml_mat(fe, f"Rot_{n}", extri, required=False)
+        if rot is None:
+            rot = cv2.Rodrigues(_yml_mat(fe, f"R_{n}", extri).reshape(3, 1))[0]
+        T = _yml_mat(fe, f"T_{n}", extri).reshape(3)
+        w, h = _yml_size(fi, n, image_size, intri)
+        try:
+            cams.append(_with_up(n, w, h, K, dist, rot, T, up))
+        except CalibrationError as e:
+            raise CalibrationError(f"{intri}: {e}") from None
+    return cams
+
+
 def _storage(path) -> cv2.FileStorage:
     path = Path(path)
     if not path.is_file():
         raise CalibrationError(f"{path}: no such file")
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    except (cv2.error, SystemError) as e:
+        raise CalibrationError(f"{path}: not an OpenCV FileStorage file ({str(e).strip()[-80:]})") from None
     if not fs.isOpened():
         raise CalibrationError(f"{path}: not an OpenCV FileStorage file")
     return fs

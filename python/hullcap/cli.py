@@ -28,17 +28,15 @@ def _track(args) -> int:
     print(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
           + (" (given)" if args.volume else " (every camera sees it; --volume to change)"))
     result = tracker.run(args.out, resume=not args.restart, frames=args.frames, interpolate=args.interpolate,
-                         smooth_hz=args.smooth)
-    from hullcap.export import write_overlays, write_report
-
-    write_report(Path(args.out) / "report.png", result)
-    made = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png"
+                         smooth_hz=args.smooth, overlays=not args.no_overlay)
+    made = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png, problems.json"
     if not args.no_overlay:
-        write_overlays(args.out, seq, result)
         made += ", overlay/"
     lost = int(result.failed.sum())
     recovered = int((result.status == RECOVERED).sum())
     print(f"{args.out}: {len(result.failed)} frames tracked, {lost} lost, {recovered} re-acquired; {made}")
+    if len(tracker.problems):
+        print(f"problems: {tracker.problems.summary()} (all in {Path(args.out) / 'problems.json'})")
     return 0
 
 

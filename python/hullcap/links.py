@@ -76,7 +76,14 @@ class LinkModel:
     @classmethod
     def from_dict(cls, spec: dict, source: str = "<memory>") -> LinkModel:
         """Validate a link model given as the parsed JSON of ``links.json``."""
-        return _parse(spec, source)
+        try:
+            return _parse(spec, source)
+        except ModelError:
+            raise
+        except (TypeError, AttributeError, KeyError, IndexError, ValueError) as e:
+            # An entry of the wrong kind (a list where an object belongs…) that the checks
+            # above do not name one by one.
+            raise ModelError(f"{source}: malformed link model ({type(e).__name__}: {e})") from None
 
     def to_dict(self) -> dict:
         """The JSON form (``LinkModel.from_dict(m.to_dict()) == m``)."""

@@ -13,6 +13,7 @@ the raw results are always kept.
 from __future__ import annotations
 
 import io
+import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -229,13 +230,16 @@ def write_joints_csv(path, result: TrackingResult) -> None:
 def load_result(out) -> TrackingResult:
     """A finished run's results from its folder (``pose.npz`` and ``model/``)."""
     out = Path(out)
-    model = BodyModel.load(out / "model")
     path = out / "pose.npz"
+    if not path.is_file():
+        raise ResultsError(f"{out}: no pose.npz: not the results folder of a finished `hullcap track` run")
     try:
         with np.load(path) as z:
             a = {k: z[k] for k in z.files}
-    except (OSError, ValueError) as e:
-        raise ResultsError(f"{path}: not a readable pose.npz ({e})") from e
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
+        raise ResultsError(f"{path}: not a readable pose.npz ({e}); track the sequence again "
+                           f"(hullcap track --restart) to rewrite it") from None
+    model = BodyModel.load(out / "model")
     missing = {"root_translation", "root_rotation", "theta", "failed", "iterations", "fps"} - a.keys()
     if missing:
         raise ResultsError(f"{path}: missing {sorted(missing)}")

@@ -1,12 +1,16 @@
 """Reading a multi-view sequence folder (docs/formats.md), frame by frame.
 
 Nothing is loaded before it is asked for: ``seq.images(i)`` reads frame i of every camera,
-``seq.masks(i)`` its silhouettes when the folder has them. Each problem (a missing
-camera folder, an unreadable or wrongly sized image) raises ``ValueError`` naming the file.
+``seq.masks(i)`` its silhouettes when the folder has them, ``seq.image(i, cam)`` one view.
+Each problem (a missing camera folder; a missing, unreadable, truncated, blank or wrongly
+sized image) raises :class:`~hullcap.errors.SequenceError` naming the file and camera, so
+that a caller can leave that one view out. :meth:`Sequence.frame_counts` says how many
+frames each camera has on disk (``meta.json`` may claim more).
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import cv2
@@ -81,16 +85,54 @@ class Sequence:
 
     def images(self, frame: int) -> list[np.ndarray]:
         """Frame `frame` of every camera, (H, W, 3) uint8 BGR each, in camera order."""
+        return [self.image(frame, cam.name) for cam in self.cameras]
+
+    def image(self, frame: int, camera) -> np.ndarray:
+        """Frame `frame` of `camera` (name or index), (H, W, 3) uint8 BGR. A blank image
+        (every pixel the same: a camera that dropped out) is an error too."""
         self._check_frame(frame)
-        out = []
+        cam = self.cameras[camera]
+        png = self.path / "frames" / cam.name / f"{frame:06d}.png"
+        jpg = png.with_suffix(".jpg")
+        if png.is_file() or jpg.is_file() or not (self.path / "videos" / f"{cam.name}.mp4").is_file():
+            path = png if png.is_file() or not jpg.is_file() else jpg
+            img = self._read(path, cam, colour=True)
+        else:
+            path, img = self.path / "videos" / f"{cam.name}.mp4", self._video_frame(cam, frame)
+        if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
+            raise SequenceError(f"{path}: blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
+        return img
+
+    def check_image_sizes(self) -> None:
+        """Refuse a camera whose images all have another size than its calibration (the
+        first and the last frame on disk both differ: the wrong camera's files, another
+        resolution), naming the file; a single odd frame is left to the tracker."""
         for cam in self.cameras:
-            png = self.path / "frames" / cam.name / f"{frame:06d}.png"
-            jpg = png.with_suffix(".jpg")
-            if png.is_file() or jpg.is_file() or not (self.path / "videos" / f"{cam.name}.mp4").is_file():
-                out.append(self._read(png if png.is_file() or not jpg.is_file() else jpg, cam, colour=True))
+            wrong = []
+            for frame in sorted({0, self.n_frames - 1}):
+                try:
+                    self.image(frame, cam.name)
+                except SequenceError as e:
+                    wrong.append("is calibrated for" in str(e) and str(e))
+            if wrong and all(wrong):
+                raise SequenceError(wrong[0])
+
+    def frame_counts(self, silhouettes: bool = False) -> dict[str, int]:
+        """Frames on disk per camera: numbered images in ``frames/<cam>/``, else the
+        video's frame count; with `silhouettes`, the masks in ``silhouettes/<cam>/``."""
+        numbered = re.compile(r"^\d{6}\.(png|jpg)$")
+        counts = {}
+        for cam in self.cameras:
+            folder = self.path / ("silhouettes" if silhouettes else "frames") / cam.name
+            video = self.path / "videos" / f"{cam.name}.mp4"
+            if folder.is_dir() or silhouettes or not video.is_file():
+                counts[cam.name] = len({p.stem for p in folder.iterdir() if numbered.match(p.name)}) \
+                    if folder.is_dir() else 0
             else:
-                out.append(self._video_frame(cam, frame))
-        return out
+                cap = cv2.VideoCapture(str(video))
+                counts[cam.name] = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+                cap.release()
+        return counts
 
     def masks(self, frame: int) -> list[np.ndarray]:
         """The given silhouettes of frame `frame` (0/255 uint8), in camera order."""
@@ -107,9 +149,21 @@ class Sequence:
             raise IndexError(f"{self.path}: frame {frame} out of range 0..{self.n_frames - 1}")
 
     def _read(self, path: Path, cam, colour: bool) -> np.ndarray:
-        if not path.is_file():
-            raise SequenceError(f"{path}: missing (camera {cam.name!r})")
-        img = cv2.imread(str(path), cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE)
+        try:
+            data = path.read_bytes()
+        except FileNotFoundError:
+            raise SequenceError(f"{path}: missing (camera {cam.name!r})") from None
+        except OSError as e:
+            raise SequenceError(f"{path}: cannot be read ({e.strerror}; camera {cam.name!r})") from None
+        # libjpeg decodes a cut-off JPEG into a half-grey image with only a console message
+        # naming no file, and libpng complains on the console too: a file must end with its
+        # format's end marker (JPEG's EOI, PNG's IEND chunk).
+        if data.startswith(b"\xff\xd8") and not data.rstrip(b"\0").endswith(b"\xff\xd9"):
+            raise SequenceError(f"{path}: truncated JPEG (camera {cam.name!r})")
+        if data.startswith(b"\x89PNG") and not data.endswith(b"IEND\xaeB`\x82"):
+            raise SequenceError(f"{path}: truncated PNG (camera {cam.name!r})")
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE) \
+            if data else None
         if img is None:
             raise SequenceError(f"{path}: not a readable image (camera {cam.name!r})")
         if img.shape[:2] != (cam.height, cam.width):

@@ -17,9 +17,14 @@ stands when the search finds nothing better (``good``), the search's fit when it
 (``recovered``), and the frame is ``failed`` when nothing explains its hull to
 ``min_quality``.
 
+A broken image of one camera leaves that view out of that frame (the hull and fit use the
+others) and is recorded in ``problems.json`` (:mod:`hullcap.problems`); only a frame with
+too few usable views is lost.
+
 Outputs (docs/formats.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``,
-``model.glb``, all written atomically. A checkpoint (``.checkpoint.npz``) written every
-few frames lets an interrupted run resume where it stopped.
+``model.glb``, ``report.png``, ``problems.json`` (and overlays when asked), all written
+atomically. A checkpoint (``.checkpoint.npz``) written every few frames, and kept until
+every output is written, lets an interrupted run resume where it stopped.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ from __future__ import annotations
 import io
 import time
 import warnings
+import zipfile
 from collections import defaultdict, deque
 from dataclasses import dataclass, field
 from itertools import islice
@@ -36,10 +42,11 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
-from hullcap.errors import OptionsError, TrackingError
+from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError
 from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
 from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap.hull import HullReport, capture_volume, check_bounds, visual_hull
+from hullcap.problems import ProblemLog
 from hullcap.progress import progress
 from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
 from hullcap.render import render_depth
@@ -51,6 +58,7 @@ from hullcap.subject import SubjectOptions, build_subject, place_model
 __all__ = ["Tracker", "TrackerOptions"]
 
 CHECKPOINT = ".checkpoint.npz"
+PROBLEMS = "problems.json"
 
 
 @dataclass(frozen=True)
@@ -155,9 +163,10 @@ class Tracker:
         """``(lo, hi)``: the capture volume the hull is carved in (metres)."""
         self._backgrounds = None
         self._guided = None
+        self._broken: set = set()  # (frame, camera) of views already left out
         self.seconds: dict = defaultdict(float)
-        self.problems: list[str] = []
-        """Frames and views left out, and why."""
+        self.problems = ProblemLog(warn=False)
+        """Frames and views left out, and why (:mod:`hullcap.problems`)."""
 
     # -- one frame's input -------------------------------------------------------------
 
@@ -176,18 +185,42 @@ class Tracker:
             for cam in seq.cameras:
                 try:
                     masks.append(seq.mask(frame, cam.name))
-                except ValueError as e:  # a missing or broken mask: leave that view out
-                    self.problems.append(f"frame {frame}: {e}")
+                except SequenceError as e:  # a missing or broken mask: leave that view out
+                    self._view_left_out(frame, cam, e)
                     masks.append(np.zeros((cam.height, cam.width), np.uint8))
         else:
-            images = seq.images(frame)
+            images = self._images(frame)
             segmenters = self._segmenters()
-            if segmenters is None:
-                masks = [m.mask(img) for m, img in zip(self._backgrounds, images)]
-            else:
-                masks = [s.mask(img, p) for s, img, p in zip(segmenters, images, priors or [None] * len(images))]
+            priors = priors or [None] * len(images)
+            masks = []
+            for i, (cam, img) in enumerate(zip(seq.cameras, images)):
+                if img is None:
+                    masks.append(np.zeros((cam.height, cam.width), np.uint8))
+                elif segmenters is None:
+                    masks.append(self._backgrounds[i].mask(img))
+                else:
+                    masks.append(segmenters[i].mask(img, priors[i]))
         self.seconds["silhouettes"] += time.perf_counter() - t0
         return masks
+
+    def _images(self, frame: int) -> list[np.ndarray | None]:
+        """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""
+        images = []
+        for cam in self.sequence.cameras:
+            try:
+                images.append(self.sequence.image(frame, cam.name))
+            except SequenceError as e:
+                self._view_left_out(frame, cam, e)
+                images.append(None)
+        return images
+
+    def _view_left_out(self, frame: int, cam, error: Exception) -> None:
+        if (frame, cam.name) in self._broken:
+            return
+        self._broken.add((frame, cam.name))
+        text = str(error)
+        file, _, what = text.partition(": ") if text.startswith(str(self.sequence.path)) else (None, "", text)
+        self.problems.add(frame, what, cam.name, file)
 
     @property
     def _hull_tolerance(self) -> int:
@@ -219,10 +252,11 @@ class Tracker:
         the silhouettes are not guided."""
         if not self._guides():
             return
-        for seg, img, sil in zip(self._guided, self.sequence.images(frame), self._silhouettes(model, pose)):
+        for seg, img, sil in zip(self._guided, self._images(frame), self._silhouettes(model, pose)):
             if fresh:
                 seg.colours.clear()
-            seg.learn(img, sil)
+            if img is not None:
+                seg.learn(img, sil)
 
     def hull(self, frame: int, prior=None):
         """The visual hull of `frame`, with the model at a predicted pose as its prior
@@ -249,7 +283,9 @@ class Tracker:
                                       tolerance=tolerance, priors=priors)
             return surface, masks
         finally:
-            self.problems += [f"frame {frame}: camera {c!r} left out ({why})" for c, why in report.skipped.items()]
+            for name, why in report.skipped.items():
+                if (frame, name) not in self._broken:
+                    self.problems.add(frame, f"left out ({why})", name)
             self.seconds["hull"] += time.perf_counter() - t0
 
     def _agreement(self, masks, model: BodyModel, pose: PoseParameters) -> float:
@@ -263,12 +299,18 @@ class Tracker:
     # -- the sequence ------------------------------------------------------------------
 
     def run(self, out, resume: bool = True, show_progress: bool = True, frames: int | None = None,
-            interpolate: bool = False, smooth_hz: float | None = None) -> TrackingResult:
-        """Track the sequence into folder `out` (see the module documentation); the last
-        two arguments go to :func:`hullcap.results.write_outputs`."""
+            interpolate: bool = False, smooth_hz: float | None = None, overlays: bool = False) -> TrackingResult:
+        """Track the sequence into folder `out` (see the module documentation): the results,
+        ``report.png``, ``problems.json`` and, with `overlays`, ``overlay/<cam>.mp4``.
+        `interpolate` and `smooth_hz` go to :func:`hullcap.results.write_outputs`. The
+        checkpoint stays until every output is written, so an interruption at any point
+        resumes without tracking again what was tracked."""
+        from hullcap.export import write_overlays, write_report
+
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
-        n = len(self.sequence) if frames is None else min(frames, len(self.sequence))
+        self.problems.warn = show_progress
+        n = self._frames_to_track(frames)
         result, start = self._resume(out, n) if resume else (None, 0)
         if result is None:
             t0, before = time.perf_counter(), dict(self.seconds)
@@ -289,10 +331,31 @@ class Tracker:
             self._track(state, result, frame)
             if frame % 10 == 0:
                 self._checkpoint(out, result, frame + 1)
+        bar.close()
+        self._checkpoint(out, result, n)
         result.seconds = dict(self.seconds)
         write_outputs(out, result, interpolate, smooth_hz)
+        write_report(out / "report.png", result)
+        if overlays:
+            write_overlays(out, self.sequence, result, show_progress=show_progress)
+        self.problems.save(out / PROBLEMS)
         (out / CHECKPOINT).unlink(missing_ok=True)
         return result
+
+    def _frames_to_track(self, frames: int | None) -> int:
+        """How many frames to track, after the start-up checks: every camera's frames on
+        disk against ``meta.json`` (recorded; frames that no camera has are not tracked)
+        and the image size of every camera against its calibration."""
+        seq = self.sequence
+        n = len(seq) if frames is None else min(frames, len(seq))
+        counts = seq.frame_counts(silhouettes=self._given_silhouettes)
+        if any(k != len(seq) for k in counts.values()):
+            on_disk = ", ".join(f"{name} {k}" for name, k in counts.items())
+            self.problems.add(None, f"meta.json says {len(seq)} frames, on disk: {on_disk}; "
+                                    f"a camera's missing frames leave its view out")
+        if not self._given_silhouettes:
+            seq.check_image_sizes()
+        return max(1, min(n, max(counts.values())))
 
     def _subject(self, n: int, show_progress: bool):
         """``(model, first frame, its pose)``: the subject's model, built (and refined) at the
@@ -302,7 +365,7 @@ class Tracker:
             try:
                 hull, masks = self._carve(frame)
             except ValueError as e:
-                self.problems.append(f"frame {frame}: {e}")
+                self.problems.add(frame, str(e))
                 continue
             if self.model is not None:
                 placed = place_model(self.model, hull, options=options.subject)
@@ -319,17 +382,17 @@ class Tracker:
                     guided, masks = self._carve(frame, (subject.model, subject.pose))
                     subject = build_subject(guided, poses=[subject.pose], options=options.subject)
             except ValueError as e:
-                self.problems.append(f"frame {frame}: {e}")
+                self.problems.add(frame, str(e))
                 continue
             agreement = self._agreement(masks, subject.model, subject.pose)
             if agreement < options.min_subject_agreement:
-                self.problems.append(f"frame {frame}: the body model fitted there agrees too little with the "
-                                     f"silhouettes (mean IoU {agreement:.2f}) to start from")
+                self.problems.add(frame, f"the body model fitted there agrees too little with the "
+                                         f"silhouettes (mean IoU {agreement:.2f}) to start from")
                 continue
             if not options.refine_joints:
                 return subject.model, frame, subject.fit
             return self._refine(subject, frame, n, show_progress)
-        last = f"; the last problem: {self.problems[-1]}" if self.problems else ""
+        last = f"; the last problem: {self.problems.items[-1]}" if len(self.problems) else ""
         raise TrackingError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start "
                             f"from{last}")
 
@@ -362,7 +425,7 @@ class Tracker:
         try:
             surface = self.hull(frame, prior)
         except ValueError as e:  # no usable view in this frame
-            self.problems.append(f"frame {frame}: {e}")
+            self.problems.add(frame, str(e))
             result.fail(frame)
             return
         t0 = time.perf_counter()
@@ -400,17 +463,25 @@ class Tracker:
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
         buf = io.BytesIO()
         np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays())
+        self.problems.save(out / PROBLEMS)
         atomic_write(out / CHECKPOINT, buf.getvalue())
 
     def _resume(self, out: Path, n: int):
         path = out / CHECKPOINT
         if not path.is_file() or not (out / "model").is_dir():
             return None, 0
-        with np.load(path) as z:
-            if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
-                return None, 0
-            result = TrackingResult.from_arrays(BodyModel.load(out / "model"), {k: z[k] for k in z.files})
-            return result, int(z["next_frame"])
+        try:
+            with np.load(path) as z:
+                if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
+                    return None, 0
+                arrays = {k: z[k] for k in z.files}
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+            raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
+                               f"(resume=False) to start over") from None
+        result = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays)
+        if (out / PROBLEMS).is_file():
+            self.problems.extend(ProblemLog.load(out / PROBLEMS))
+        return result, int(arrays["next_frame"])
 
 
 class _State:

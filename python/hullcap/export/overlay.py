@@ -9,6 +9,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from hullcap._files import publish
+from hullcap.errors import SequenceError
 from hullcap.progress import progress
 from hullcap.render import render_depth
 
@@ -68,9 +70,10 @@ def write_overlays(out, sequence, result, show_progress: bool = True, still: int
             raise OSError(f"{folder}: cannot write mp4 video for camera {cam.name!r}")
         writers.append(w)
         temps.append(Path(tmp.name))
+    done = False
     try:
         for f in progress(range(n), total=n, desc="overlay", enable=show_progress):
-            images = sequence.images(f)
+            images = [_readable(sequence, f, cam) for cam in sequence.cameras]
             ok = not result.failed[f]
             if ok:
                 pose = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f], clamp=False)
@@ -80,15 +83,30 @@ def write_overlays(out, sequence, result, show_progress: bool = True, still: int
                 w.write(drawn)
                 if still == f:
                     cv2.imwrite(str(folder / f"{cam.name}_{f:06d}.png"), drawn)
+        done = True
     finally:
         for w in writers:
             w.release()
+        if not done:  # interrupted or failed: no half videos left behind
+            for tmp in temps:
+                tmp.unlink(missing_ok=True)
     paths = []
     for cam, tmp in zip(sequence.cameras, temps):
         final = folder / f"{cam.name}.mp4"
-        tmp.replace(final)
+        publish(tmp, final)
         paths.append(final)
     return paths
+
+
+def _readable(sequence, frame: int, cam) -> np.ndarray:
+    """The camera's image of `frame`, or a grey one saying it could not be read (the run's
+    problems.json says why)."""
+    try:
+        return sequence.image(frame, cam.name)
+    except SequenceError:
+        img = np.full((cam.height, cam.width, 3), 96, np.uint8)
+        cv2.putText(img, "image unreadable", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (255, 255, 255), 2, cv2.LINE_AA)
+        return img
 
 
 def write_report(path, result, truth_joints=None) -> None:

@@ -1,0 +1,116 @@
+"""What went wrong in a run, view by view: ``OUT/problems.json`` and the summary at the end.
+
+A broken image of one camera (unreadable, truncated, missing, blank, of the wrong size, past
+the end of a short video) leaves that view out of that frame; the hull and the fit use the
+others. Each such event is a :class:`Problem`; the run keeps them all, writes them to
+``problems.json`` (docs/formats.md) and prints one warning per camera as it goes and a
+summary at the end, so nothing is lost without a word.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from collections import Counter, defaultdict
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from tqdm import tqdm
+
+from hullcap._files import atomic_write, read_document
+from hullcap.errors import ResultsError
+
+__all__ = ["Problem", "ProblemLog"]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing left out of a run.
+
+    Attributes:
+        frame: the frame (``None``: the whole sequence, found at start-up).
+        camera: the camera's name (``None``: the frame as a whole).
+        file: the file at fault, if one is.
+        what: what was wrong, in words.
+    """
+
+    frame: int | None
+    camera: str | None
+    file: str | None
+    what: str
+
+    def __str__(self) -> str:
+        where = [f"frame {self.frame}" if self.frame is not None else None,
+                 f"camera {self.camera!r}" if self.camera is not None else None, self.file]
+        return ": ".join([w for w in where if w] + [self.what])
+
+
+class ProblemLog:
+    """The problems of a run, in order; warns once per camera (and once for whole frames)
+    on `stream` as they come."""
+
+    def __init__(self, stream=None, warn: bool = True):
+        self.items: list[Problem] = []
+        self.warn = warn
+        """Whether to print a warning the first time a camera has a problem."""
+        self._stream = stream
+        self._warned: set = set()
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __iter__(self):
+        return iter(self.items)
+
+    def add(self, frame: int | None, what: str, camera: str | None = None, file=None) -> Problem:
+        problem = Problem(frame, camera, None if file is None else str(file), what)
+        self.items.append(problem)
+        if self.warn and camera not in self._warned:
+            self._warned.add(camera)
+            more = "further problems of this camera" if camera is not None else "further ones"
+            tqdm.write(f"hullcap: warning: {problem} ({more} go to problems.json)", file=self._stream or sys.stderr)
+        return problem
+
+    def extend(self, problems) -> None:
+        """Take `problems` (from a resumed run) without warning again."""
+        for p in problems:
+            self.items.append(p)
+            self._warned.add(p.camera)
+
+    def summary(self, limit: int = 4) -> str:
+        """One line: how many views were left out in how many frames, the first few."""
+        views = [p for p in self.items if p.camera is not None and p.frame is not None]
+        other = [p for p in self.items if p not in views]
+        parts = []
+        if views:
+            frames = len({p.frame for p in views})
+            shown = ", ".join(f"{p.camera} frame {p.frame} {p.what}" for p in views[:limit])
+            parts.append(f"{len(views)} view{'s' * (len(views) != 1)} left out in {frames} "
+                         f"frame{'s' * (frames != 1)}: {shown}{' …' if len(views) > limit else ''}")
+            per_camera = Counter(p.camera for p in views)
+            if len(per_camera) > 1:
+                parts.append("per camera " + ", ".join(f"{c} {k}" for c, k in sorted(per_camera.items())))
+        if other:
+            parts.append(f"{len(other)} other problem{'s' * (len(other) != 1)}: {other[0]}"
+                         + (" …" if len(other) > 1 else ""))
+        return "; ".join(parts) if parts else "no problems"
+
+    def by_camera(self) -> dict[str | None, list[Problem]]:
+        groups = defaultdict(list)
+        for p in self.items:
+            groups[p.camera].append(p)
+        return dict(groups)
+
+    def save(self, path) -> None:
+        """``problems.json``: ``{"problems": [{frame, camera, file, what}, …]}``, atomically."""
+        doc = {"problems": [asdict(p) for p in self.items]}
+        atomic_write(Path(path), (json.dumps(doc, indent=1) + "\n").encode())
+
+    @staticmethod
+    def load(path) -> list[Problem]:
+        """The problems a ``problems.json`` holds."""
+        doc = read_document(path, ResultsError)
+        try:
+            return [Problem(p["frame"], p["camera"], p["file"], str(p["what"])) for p in doc["problems"]]
+        except (KeyError, TypeError) as e:
+            raise ResultsError(f"{path}: not a problems.json ({e!r})") from None

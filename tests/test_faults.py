@@ -1,0 +1,156 @@
+"""Broken inputs a real capture brings, each built from a copy of a small synthetic sequence:
+one bad view leaves that view out of that frame, the run finishes and says what it left out;
+interrupted outputs resume without tracking again; outputs follow the umask."""
+
+import json
+import os
+import shutil
+import stat
+
+import cv2
+import numpy as np
+import pytest
+from hullcap import Sequence, Tracker, TrackerOptions
+from hullcap.cameras import ring
+from hullcap.cli import main
+from hullcap.errors import ResultsError, SequenceError
+from hullcap.synth import synthesize
+
+FRAMES = 8
+FAST = TrackerOptions(refine_joints=False)
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    """Six cameras, colour frames and backgrounds (no silhouettes), eight frames."""
+    out = tmp_path_factory.mktemp("faults") / "seq"
+    cams = ring(6, radius=3.2, width=400, height_px=300, fov_deg=55)
+    return synthesize(out, "squat", cams, subject="short", frames=FRAMES, show_progress=False)
+
+
+def copy(clean, tmp_path):
+    seq = tmp_path / "seq"
+    shutil.copytree(clean, seq)
+    return seq
+
+
+def frame_file(seq, cam, frame):
+    return seq / "frames" / cam / f"{frame:06d}.png"
+
+
+def break_views(seq):
+    """One fault per camera, each in another frame: (camera, frame, what problems.json says)."""
+    # cam0 as a video two frames shorter than the others.
+    (seq / "videos").mkdir()
+    video = cv2.VideoWriter(str(seq / "videos" / "cam0.mp4"), cv2.VideoWriter_fourcc(*"mp4v"), 30, (400, 300))
+    for f in range(FRAMES - 2):
+        video.write(cv2.imread(str(frame_file(seq, "cam0", f))))
+    video.release()
+    shutil.rmtree(seq / "frames" / "cam0")
+    # cam1 frame 3 of the wrong size; cam2 frame 4 a truncated PNG; cam3 frame 5 a truncated
+    # JPEG in place of its PNG; cam4 frame 2 dropped; cam5 frame 1 blank (a camera that blinked).
+    cv2.imwrite(str(frame_file(seq, "cam1", 3)), np.zeros((240, 320, 3), np.uint8) + 90)
+    data = frame_file(seq, "cam2", 4).read_bytes()
+    frame_file(seq, "cam2", 4).write_bytes(data[: len(data) // 3])
+    ok, jpg = cv2.imencode(".jpg", cv2.imread(str(frame_file(seq, "cam3", 5))))
+    frame_file(seq, "cam3", 5).unlink()
+    (seq / "frames" / "cam3" / "000005.jpg").write_bytes(jpg.tobytes()[: len(jpg) // 2])
+    frame_file(seq, "cam4", 2).unlink()
+    cv2.imwrite(str(frame_file(seq, "cam5", 1)), np.zeros((300, 400, 3), np.uint8))
+    # meta.json claims two frames more than any camera has.
+    (seq / "meta.json").write_text(json.dumps({"fps": 30, "frames": FRAMES + 2}))
+    return [("cam0", 6, "no frame 6"), ("cam0", 7, "no frame 7"), ("cam1", 3, "image is 320×240"),
+            ("cam2", 4, "truncated PNG"), ("cam3", 5, "truncated JPEG"), ("cam4", 2, "missing"),
+            ("cam5", 1, "blank image")]
+
+
+def test_one_broken_view_leaves_only_that_view_out(clean, tmp_path, capsys):
+    seq = copy(clean, tmp_path)
+    faults = break_views(seq)
+    out = tmp_path / "out"
+    assert main(["track", str(seq), "--out", str(out), "--no-refine-joints"]) == 0
+    captured = capsys.readouterr()
+    assert f"{FRAMES} frames tracked, 0 lost" in captured.out
+    assert "problems: 7 views left out in 7 frames" in captured.out
+    # One warning per camera, not one per frame: cam0 has two broken frames but warns once.
+    warnings = [line for line in captured.err.splitlines() if line.startswith("hullcap: warning:")]
+    assert sum("'cam0'" in w for w in warnings) == 1, warnings
+    problems = json.loads((out / "problems.json").read_text())["problems"]
+    for cam, frame, what in faults:
+        assert any(p["camera"] == cam and p["frame"] == frame and what in p["what"] for p in problems), (cam, frame)
+        assert not any(p["camera"] == cam and p["frame"] == frame and "left out" in p["what"] for p in problems)
+    (meta,) = [p for p in problems if p["frame"] is None]
+    assert "meta.json says 10 frames, on disk: cam0 6, cam1 8, cam2 8, cam3 8, cam4 7, cam5 8" in meta["what"]
+    named = [p for p in problems if p["camera"] == "cam3" and p["frame"] == 5]
+    assert named[0]["file"].endswith("frames/cam3/000005.jpg")
+    # Every output was written, overlays included (the unreadable views drawn grey).
+    for name in ("joints.csv", "pose.npz", "motion.bvh", "model.glb", "report.png"):
+        assert (out / name).is_file(), name
+    for cam in range(6):
+        video = cv2.VideoCapture(str(out / "overlay" / f"cam{cam}.mp4"))
+        assert int(video.get(cv2.CAP_PROP_FRAME_COUNT)) == FRAMES
+    assert not list(out.glob("**/.*part*")) and not (out / ".checkpoint.npz").exists()
+    pose = np.load(out / "pose.npz")
+    assert len(pose["failed"]) == FRAMES and not pose["failed"].any()
+
+
+def test_a_camera_whose_images_all_have_another_size_is_refused_at_start(clean, tmp_path):
+    seq = copy(clean, tmp_path)
+    for f in range(FRAMES):
+        cv2.imwrite(str(frame_file(seq, "cam2", f)), np.full((150, 200, 3), 80, np.uint8))
+    with pytest.raises(SequenceError, match=r"cam2/000000.png: image is 200×150, camera 'cam2' is calibrated for 400×300"):
+        Tracker(Sequence(seq), options=FAST).run(tmp_path / "out", show_progress=False)
+
+
+def test_an_interruption_while_writing_overlays_resumes_without_tracking_again(clean, tmp_path, monkeypatch):
+    import hullcap.export as export
+
+    seq = Sequence(clean)
+    out = tmp_path / "out"
+    real = export.write_overlays
+
+    def interrupted(out_, sequence, result, show_progress=True, still=None):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(export, "write_overlays", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        Tracker(seq, options=FAST).run(out, show_progress=False, overlays=True)
+    assert (out / ".checkpoint.npz").is_file() and (out / "pose.npz").is_file()
+    first = (out / "joints.csv").read_bytes()
+    monkeypatch.setattr(export, "write_overlays", real)
+    tracked = []
+    monkeypatch.setattr(Tracker, "_track", lambda self, *a: tracked.append(a))
+    again = Tracker(seq, options=FAST)
+    result = again.run(out, show_progress=False, overlays=True)
+    assert tracked == [] and again.seconds.get("subject", 0) == 0
+    assert (out / "joints.csv").read_bytes() == first and not result.failed.any()
+    assert (out / "overlay" / "cam5.mp4").is_file() and not (out / ".checkpoint.npz").exists()
+
+
+def test_outputs_follow_the_umask(clean, tmp_path):
+    old = os.umask(0o027)
+    try:
+        out = tmp_path / "out"
+        Tracker(Sequence(clean), options=FAST).run(out, show_progress=False, frames=2, overlays=True)
+        assert main(["export", str(out), "--format", "trc"]) == 0
+    finally:
+        os.umask(old)
+    for name in ("joints.csv", "pose.npz", "motion.bvh", "model.glb", "report.png", "problems.json",
+                 "joints.trc", "model/links.json", "overlay/cam0.mp4"):
+        assert stat.S_IMODE((out / name).stat().st_mode) == 0o640, name
+
+
+def test_damaged_checkpoint_and_pose_say_what_to_do(clean, tmp_path, capsys):
+    seq = Sequence(clean)
+    out = tmp_path / "out"
+    Tracker(seq, options=FAST).run(out, show_progress=False, frames=2)
+    (out / ".checkpoint.npz").write_bytes(b"PK\x03\x04 not a zip")
+    with pytest.raises(ResultsError, match="checkpoint is damaged.*--restart"):
+        Tracker(seq, options=FAST).run(out, show_progress=False, frames=2)
+    data = (out / "pose.npz").read_bytes()
+    (out / "pose.npz").write_bytes(data[: len(data) // 2])
+    assert main(["export", str(out), "--format", "bvh"]) == 2
+    assert "not a readable pose.npz" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert main(["export", str(tmp_path / "empty"), "--format", "bvh"]) == 2
+    assert "no pose.npz: not the results folder" in capsys.readouterr().err

@@ -1,0 +1,187 @@
+"""Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, an EasyMocap or
+Pose2Sim calibration, links.json or pose.npz either load or raise an exception of the
+hullcap family (hullcap.errors.HullcapError), never another one.
+
+Inputs are random bytes, valid files with bytes changed, cut or inserted, and (for the
+JSON formats) valid documents with one value replaced by arbitrary JSON. The number of
+examples is bounded so that the whole module runs in well under a minute.
+"""
+
+import io
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from hullcap import BodyModel
+from hullcap.cameras import Cameras, ring
+from hullcap.errors import HullcapError
+from hullcap.links import LinkModel
+from hullcap.results import load_result
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+# CI runs a fixed, reproducible set (derandomized); HULLCAP_FUZZ_EXAMPLES=5000 explores further.
+EXAMPLES = int(os.environ.get("HULLCAP_FUZZ_EXAMPLES", "60"))
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow], database=None,
+                derandomize="HULLCAP_FUZZ_EXAMPLES" not in os.environ)
+
+JSON = st.recursive(st.none() | st.booleans() | st.integers(-10**6, 10**6) | st.floats(allow_nan=True)
+                    | st.text(max_size=8),
+                    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4),
+                    max_leaves=12)
+
+
+def mutated(valid: bytes):
+    """Strategy: `valid` with some bytes replaced, a cut, an insertion — or random bytes."""
+    edits = st.lists(st.tuples(st.integers(0, max(0, len(valid) - 1)), st.integers(0, 255)), max_size=8)
+
+    def apply(args):
+        changes, cut, insert_at, inserted = args
+        data = bytearray(valid)
+        for pos, value in changes:
+            data[pos] = value
+        data[insert_at:insert_at] = inserted
+        return bytes(data[:cut])
+
+    return st.one_of(
+        st.binary(max_size=200),
+        st.tuples(edits, st.integers(0, len(valid) + 16), st.integers(0, len(valid)), st.binary(max_size=8)).map(apply),
+    )
+
+
+def with_one_value_replaced(doc):
+    """Strategy: the JSON document `doc` with one value somewhere in it replaced by any JSON."""
+    paths = []
+
+    def walk(node, path):
+        paths.append(path)
+        items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else []
+        for k, v in items:
+            walk(v, path + (k,))
+
+    walk(doc, ())
+
+    def replace(args):
+        path, value = args
+        if not path:
+            return json.dumps(value).encode()
+        copy = json.loads(json.dumps(doc))
+        node = copy
+        for k in path[:-1]:
+            node = node[k]
+        node[path[-1]] = value
+        return json.dumps(copy).encode()
+
+    return st.tuples(st.sampled_from(paths), JSON).map(replace)
+
+
+def loads_or_hullcap_error(load, data: bytes, name: str):
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / name
+        path.write_bytes(data)
+        try:
+            load(path)
+        except HullcapError:
+            pass
+
+
+CAMERAS = ring(2, width=64, height_px=48)
+CAMERAS_JSON = {"units": "m", "cameras": [c.to_dict() for c in CAMERAS]}
+
+
+@FUZZ
+@given(st.one_of(mutated(json.dumps(CAMERAS_JSON).encode()), with_one_value_replaced(CAMERAS_JSON)))
+def test_cameras_json(data):
+    loads_or_hullcap_error(Cameras.load, data, "cameras.json")
+
+
+LINKS = LinkModel.standard().to_dict()
+
+
+@FUZZ
+@given(st.one_of(mutated(json.dumps(LINKS).encode()), with_one_value_replaced(LINKS)))
+def test_links_json(data):
+    loads_or_hullcap_error(LinkModel.load, data, "links.json")
+
+
+def _easymocap_files() -> tuple[bytes, bytes]:
+    intri = "%YAML:1.0\n---\nnames:\n   - \"c0\"\nK_c0: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n" \
+            "   data: [ 50., 0., 31.5, 0., 50., 23.5, 0., 0., 1. ]\nH_c0: 48\nW_c0: 64\n"
+    extri = "%YAML:1.0\n---\nnames:\n   - \"c0\"\nRot_c0: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n" \
+            "   data: [ 1., 0., 0., 0., 1., 0., 0., 0., 1. ]\nT_c0: !!opencv-matrix\n   rows: 3\n   cols: 1\n" \
+            "   dt: d\n   data: [ 0., 0., 3. ]\n"
+    return intri.encode(), extri.encode()
+
+
+INTRI, EXTRI = _easymocap_files()
+
+
+@FUZZ
+@given(mutated(INTRI), mutated(EXTRI))
+def test_easymocap(intri, extri):
+    with tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / "intri.yml").write_bytes(intri)
+        (Path(tmp) / "extri.yml").write_bytes(extri)
+        try:
+            Cameras.from_easymocap(Path(tmp) / "intri.yml", Path(tmp) / "extri.yml")
+        except HullcapError:
+            pass
+
+
+POSE2SIM = (b'[cam_01]\nname = "cam_01"\nsize = [ 64.0, 48.0,]\n'
+            b"matrix = [ [ 50.0, 0.0, 31.5,], [ 0.0, 50.0, 23.5,], [ 0.0, 0.0, 1.0,],]\n"
+            b"distortions = [ 0.0, 0.0, 0.0, 0.0,]\nrotation = [ 0.1, 0.2, 0.3,]\n"
+            b"translation = [ 0.0, 0.0, 3.0,]\nfisheye = false\n\n[metadata]\nadjusted = false\nerror = 0.0\n")
+
+
+@FUZZ
+@given(mutated(POSE2SIM))
+def test_pose2sim(data):
+    loads_or_hullcap_error(Cameras.from_pose2sim, data, "Calib.toml")
+
+
+def _pose_npz() -> bytes:
+    frames = 3
+    buf = io.BytesIO()
+    np.savez(buf, root_translation=np.zeros((frames, 3)), root_rotation=np.tile(np.eye(3), (frames, 1, 1)),
+             theta=np.zeros((frames, 29)), failed=np.zeros(frames, bool), iterations=np.zeros(frames, int),
+             fps=np.array(30.0))
+    return buf.getvalue()
+
+
+POSE = _pose_npz()
+MODEL = tempfile.mkdtemp(prefix="hullcap-fuzz-model-")
+BodyModel.template().save(MODEL)
+
+
+@FUZZ
+@given(mutated(POSE))
+def test_pose_npz(data):
+    with tempfile.TemporaryDirectory() as tmp:
+        shutil.copytree(MODEL, Path(tmp) / "model")
+        (Path(tmp) / "pose.npz").write_bytes(data)
+        try:
+            load_result(tmp)
+        except HullcapError:
+            pass
+
+
+def test_the_valid_files_load():
+    """The seeds of the fuzzing are valid: the fuzz tests start from loadable files."""
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "cameras.json").write_text(json.dumps(CAMERAS_JSON))
+        assert len(Cameras.load(tmp / "cameras.json")) == 2
+        (tmp / "links.json").write_text(json.dumps(LINKS))
+        assert LinkModel.load(tmp / "links.json").n_dofs == 29
+        (tmp / "intri.yml").write_bytes(INTRI)
+        (tmp / "extri.yml").write_bytes(EXTRI)
+        assert Cameras.from_easymocap(tmp / "intri.yml", tmp / "extri.yml").names == ["c0"]
+        (tmp / "Calib.toml").write_bytes(POSE2SIM)
+        assert Cameras.from_pose2sim(tmp / "Calib.toml").names == ["cam_01"]
+        shutil.copytree(MODEL, tmp / "model")
+        (tmp / "pose.npz").write_bytes(POSE)
+        assert len(load_result(tmp).failed) == 3
