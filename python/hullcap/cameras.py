@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -217,16 +218,8 @@ class Cameras(Sequence[Camera]):
             CalibrationError: naming the file and camera; also when a camera's principal
                 point is far from its image's centre (a swapped width and height).
         """
-        fi, fe = _storage(intri), _storage(extri)
-        try:
+        with _storage(intri) as fi, _storage(extri) as fe, _malformed(f"{intri}, {extri}"):
             return cls(_easymocap_cameras(fi, fe, intri, extri, image_size, up))
-        except CalibrationError:
-            raise
-        except (cv2.error, SystemError, TypeError, ValueError, OverflowError) as e:
-            raise CalibrationError(f"{intri}, {extri}: malformed ({e})") from None
-        finally:
-            fi.release()
-            fe.release()
 
     @classmethod
     def from_opencv(cls, paths, image_size=None, up: str = "z") -> Cameras:
@@ -238,8 +231,7 @@ class Cameras(Sequence[Camera]):
         as in :meth:`from_easymocap`."""
         cams = []
         for path in map(Path, paths):
-            fs = _storage(path)
-            try:
+            with _storage(path) as fs, _malformed(path):
                 K = _yml_first(fs, ("camera_matrix", "K"), path)
                 dist = _yml_first(fs, ("distortion_coefficients", "dist", "D"), path, required=False)
                 rot = _yml_first(fs, ("R", "rvec", "Rot"), path)
@@ -251,12 +243,6 @@ class Cameras(Sequence[Camera]):
                 h, w = fs.getNode("image_height"), fs.getNode("image_width")
                 size = (int(w.real()), int(h.real())) if not (h.empty() or w.empty()) else \
                     _size_for(image_size, path.stem, path)
-            except CalibrationError:
-                raise
-            except (cv2.error, SystemError, TypeError, ValueError, OverflowError) as e:
-                raise CalibrationError(f"{path}: malformed ({e})") from None
-            finally:
-                fs.release()
             try:
                 cams.append(_with_up(path.stem, *size, K, dist, rot.reshape(3, 3), T, up))
             except CalibrationError as e:
@@ -357,7 +343,29 @@ def _easymocap_cameras(fi, fe, intri, extri, image_size, up) -> list[Camera]:
     return cams
 
 
-def _storage(path) -> cv2.FileStorage:
+@contextmanager
+def _malformed(where):
+    """Errors of a file's contents that no check names one by one (OpenCV's parser, a
+    value of the wrong kind) as a CalibrationError naming `where`."""
+    try:
+        yield
+    except CalibrationError:
+        raise
+    except (cv2.error, SystemError, TypeError, ValueError, OverflowError) as e:
+        raise CalibrationError(f"{where}: malformed ({e})") from None
+
+
+@contextmanager
+def _storage(path):
+    """An OpenCV FileStorage opened for reading (released at the end of the block)."""
+    fs = _open_storage(path)
+    try:
+        yield fs
+    finally:
+        fs.release()
+
+
+def _open_storage(path) -> cv2.FileStorage:
     path = Path(path)
     if not path.is_file():
         raise CalibrationError(f"{path}: no such file")
