@@ -3,6 +3,12 @@
 The hull is timed side by side with a naive carving of the same volume in NumPy (every
 1 cm voxel centre projected into every view), and the mask quality (IoU against the exact
 silhouettes) beside OpenCV's MOG2. Run: ``.venv/bin/python benchmarks/bench_hull.py``.
+
+``--devset d01_bend …`` instead prints, per camera of those development sequences, the IoU
+against the exact masks (mean and worst frame) and the time per camera frame of Horprasert's
+test, MOG2 and the model-guided silhouettes. The guide is what the tracker had: the model
+of a ``bench_devset.py`` colour run of the sequence (its ``model/`` and ``pose.npz``) at
+the frame before, its colours learnt at the first tracked frame.
 """
 
 from __future__ import annotations
@@ -44,10 +50,78 @@ def naive_hull_voxels(masks, cameras, voxel=0.01, bounds=BOUNDS):
     return inside_total
 
 
+def iou(mask, truth) -> float:
+    m = mask > 0
+    return float((m & truth).sum() / max(1, (m | truth).sum()))
+
+
+def devset_table(names, step: int) -> None:
+    """Per-camera IoU and time of the three segmenters on development sequences."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import devset
+
+    from hullcap.guided import GuidedSegmenter
+    from hullcap.render import render_depth
+    from hullcap.results import load_result
+
+    where = devset.find()
+    if where is None:
+        raise SystemExit("the development set is not here: set HULLCAP_DEVSET")
+    methods = ("Horprasert", "MOG2", "model-guided")
+    for name in names:
+        seq = Sequence(devset.render(where, name))
+        run = devset.CACHE / "results" / f"{name}-colour"
+        if not (run / "pose.npz").is_file():
+            raise SystemExit(f"{run}: no tracked run to guide by; run benchmarks/bench_devset.py --only {name} first")
+        result = load_result(run)
+        model = result.model
+
+        def silhouettes(f):
+            pose = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f], clamp=False)
+            return [render_depth(cam, pose.vertices, model.faces)[1] >= 0 for cam in seq.cameras]
+
+        stat = [StatisticalBackground(seq.background(i)) for i in range(len(seq.cameras))]
+        mog = [Mog2Background(seq.background(i)) for i in range(len(seq.cameras))]
+        guided = [GuidedSegmenter(b) for b in stat]
+        first = int(np.flatnonzero(~result.failed)[0])
+        for seg, img, sil in zip(guided, seq.images(first), silhouettes(first)):
+            seg.learn(img, sil)
+        scores = {m: [[] for _ in seq.cameras] for m in methods}
+        seconds = dict.fromkeys(methods, 0.0)
+        frames = range(first + 1, len(seq), step)
+        for f in frames:
+            prior = silhouettes(f - 1) if not result.failed[f - 1] else [None] * len(seq.cameras)
+            for i, img in enumerate(seq.images(f)):
+                truth = seq.mask(f, i) > 0
+                for method, segment in (("Horprasert", lambda: stat[i].mask(img)), ("MOG2", lambda: mog[i].mask(img)),
+                                        ("model-guided", lambda: guided[i].mask(img, prior[i]))):
+                    t0 = time.perf_counter()
+                    mask = segment()
+                    seconds[method] += time.perf_counter() - t0
+                    scores[method][i].append(iou(mask, truth))
+        n = len(frames) * len(seq.cameras)
+        print(f"\n{name}: {len(seq.cameras)} cameras, every {step}th frame from {first + 1} ({len(frames)} frames); "
+              "IoU against the exact masks, mean / worst frame")
+        print("| camera | " + " | ".join(methods) + " |")
+        print("|---|" + "---|" * len(methods))
+        for i, cam in enumerate(seq.cameras):
+            print(f"| {cam.name} | " + " | ".join(f"{np.mean(scores[m][i]):.3f} / {np.min(scores[m][i]):.3f}"
+                                               for m in methods) + " |")
+        print("| all | " + " | ".join(f"**{np.mean(scores[m]):.3f}** / {np.min(scores[m]):.3f}" for m in methods) + " |")
+        print("| ms per camera frame | " + " | ".join(f"{1000 * seconds[m] / n:.1f}" for m in methods) + " |")
+
+
 def main():
-    ap = argparse.ArgumentParser(description=__doc__)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=12, help="frames timed")
+    ap.add_argument("--devset", nargs="+", metavar="SEQUENCE", help="per-camera IoU table of these development sequences")
+    ap.add_argument("--step", type=int, default=3, help="with --devset: every STEPth frame (default 3)")
     args = ap.parse_args()
+    if args.devset:
+        devset_table(args.devset, args.step)
+        return
     with tempfile.TemporaryDirectory() as tmp:
         seq_path = synthesize(Path(tmp) / "seq", "demo", 8, "tall", show_progress=False)
         seq = Sequence(seq_path)
