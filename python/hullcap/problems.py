@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 import sys
-from collections import Counter, defaultdict
+from collections import Counter
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -72,9 +72,11 @@ class ProblemLog:
         return problem
 
     def extend(self, problems) -> None:
-        """Take `problems` (from a resumed run) without warning again."""
+        """Take `problems` (from a resumed run) without warning again; those already
+        here (the start-up checks, made again) are not repeated."""
         for p in problems:
-            self.items.append(p)
+            if p not in self.items:
+                self.items.append(p)
             self._warned.add(p.camera)
 
     def summary(self, limit: int = 4) -> str:
@@ -94,12 +96,6 @@ class ProblemLog:
             parts.append(f"{len(other)} other problem{'s' * (len(other) != 1)}: {other[0]}"
                          + (" …" if len(other) > 1 else ""))
         return "; ".join(parts) if parts else "no problems"
-
-    def by_camera(self) -> dict[str | None, list[Problem]]:
-        groups = defaultdict(list)
-        for p in self.items:
-            groups[p.camera].append(p)
-        return dict(groups)
 
     def save(self, path) -> None:
         """``problems.json``: ``{"problems": [{frame, camera, file, what}, …]}``, atomically."""
