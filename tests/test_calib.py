@@ -68,6 +68,8 @@ def test_easymocap_rig_on_one_side_of_the_room_is_tracked(tmp_path, capsys):
                  "--size", f"{w}x{h}", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "6 cameras" in printed and "capture volume" in printed
+    # All on one side: the rig says so (its hull is a deep wedge; see rig.MIN_SURROUND).
+    assert "warning: less than 180° around the person" in printed
     cameras = Cameras.load(out)
     assert [c.width for c in cameras] == [w] * 6
     # The volume every camera sees holds the person at the origin, although no camera
@@ -99,17 +101,18 @@ def test_pose2sim_portrait_phones_carve_a_hull(tmp_path, capsys):
     assert main(["calib", "import", "--from", "pose2sim", str(tmp_path / "Calib_scene.toml"), "--out", str(out)]) == 0
     cameras = Cameras.load(out)
     assert [(c.width, c.height) for c in cameras] == [(272, 480)] * 4
-    synthesize(tmp_path / "seq", "squat", cameras, "short", frames=1, show_progress=False)
-    tracker = Tracker(Sequence(tmp_path / "seq"))
-    hull = tracker.hull(0)
-    assert len(hull.vertices) > 1000
-    height = np.ptp(hull.vertices[:, 2])
-    assert 1.2 < height < 2.0
+    synthesize(tmp_path / "seq", "squat", cameras, "short", frames=2, show_progress=False)
+    hull = Tracker(Sequence(tmp_path / "seq")).hull(0)
+    assert len(hull.vertices) > 1000 and 1.2 < np.ptp(hull.vertices[:, 2]) < 2.0
+    capsys.readouterr()
+    assert main(["track", str(tmp_path / "seq"), "--out", str(tmp_path / "out"), "--no-overlay"]) == 0
+    assert "2 frames tracked, 0 lost" in capsys.readouterr().out
     # `calib show` prints the rig and draws it.
     capsys.readouterr()
     assert main(["calib", "show", str(out), "--picture", str(tmp_path / "rig.png")]) == 0
     printed = capsys.readouterr().out
     assert "cam_01" in printed and "272×480" in printed and "axes meet near" in printed
+    assert "surround that point over 270°" in printed and "warning" not in printed
     import cv2
 
     assert cv2.imread(str(tmp_path / "rig.png")).shape == (800, 800, 3)

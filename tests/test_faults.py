@@ -133,10 +133,11 @@ def test_outputs_follow_the_umask(clean, tmp_path):
         out = tmp_path / "out"
         Tracker(Sequence(clean), options=FAST).run(out, show_progress=False, frames=2, overlays=True)
         assert main(["export", str(out), "--format", "trc"]) == 0
+        synthesize(tmp_path / "synth", "squat", ring(4, width=160, height_px=120), frames=1, show_progress=False)
     finally:
         os.umask(old)
     for name in ("joints.csv", "pose.npz", "motion.bvh", "model.glb", "report.png", "problems.json",
-                 "joints.trc", "model/links.json", "overlay/cam0.mp4"):
+                 "joints.trc", "model/links.json", "overlay/cam0.mp4", "../synth/cameras.json", "../synth/meta.json"):
         assert stat.S_IMODE((out / name).stat().st_mode) == 0o640, name
 
 

@@ -15,8 +15,9 @@ __all__ = ["main"]
 
 def _track(args) -> int:
     from hullcap.body import BodyModel
-    from hullcap.hull import format_bounds
+    from hullcap.hull import axes_meeting_point, format_bounds
     from hullcap.results import RECOVERED
+    from hullcap.rig import MIN_SURROUND, surround
     from hullcap.sequence import Sequence
     from hullcap.tracking import Tracker, TrackerOptions
 
@@ -27,6 +28,10 @@ def _track(args) -> int:
     tracker = Tracker(seq, model=model, options=options, bounds=args.volume)
     print(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
           + (" (given)" if args.volume else " (every camera sees it; --volume to change)"))
+    spread = surround(seq.cameras, axes_meeting_point(seq.cameras))
+    if spread < MIN_SURROUND:
+        print(f"hullcap: warning: the cameras surround the person over only {spread:.0f}°: the visual hull reaches far "
+              f"along the viewing direction and tracking may fail (hullcap calib show)", file=sys.stderr)
     result = tracker.run(args.out, resume=not args.restart, frames=args.frames, interpolate=args.interpolate,
                          smooth_hz=args.smooth, overlays=not args.no_overlay)
     made = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png, problems.json"
