@@ -61,7 +61,7 @@ def pose2sim_rig(folder, width=272, height=480):
     (folder / "Calib_scene.toml").write_text(text)
 
 
-def test_easymocap_rig_on_one_side_of_the_room_is_tracked(tmp_path, capsys):
+def test_easymocap_rig_on_one_side_of_the_room_carves_a_hull_around_the_person(tmp_path, capsys):
     w, h = easymocap_rig(tmp_path)
     out = tmp_path / "cameras.json"
     assert main(["calib", "import", "--from", "easymocap", str(tmp_path / "intri.yml"), str(tmp_path / "extri.yml"),
