@@ -30,7 +30,7 @@ PRINCIPAL_POINT_TOLERANCE = 0.25
 """An imported camera whose principal point lies further than this fraction of the image's
 width or height from its centre is refused: the image size is most likely swapped."""
 
-_Y_UP_TO_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
+Y_UP_TO_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
 """Maps a y-up world (x right, y up, z towards the viewer) to ours (z up)."""
 
 
@@ -142,8 +142,7 @@ class Cameras(Sequence[Camera]):
             raise CalibrationError(f"camera names must be unique; repeated: {sorted(dup)}")
         if not self._cameras:
             raise CalibrationError("no cameras")
-        self._memo: dict = {}
-        """What is derived from the calibration alone (the capture volume), computed once."""
+        self._derived: dict = {}
 
     def __len__(self) -> int:
         return len(self._cameras)
@@ -161,6 +160,13 @@ class Cameras(Sequence[Camera]):
 
     def __repr__(self) -> str:
         return f"Cameras({', '.join(self.names)})"
+
+    def derived(self, key, compute):
+        """What is derived from the calibration alone (the capture volume), computed by
+        ``compute()`` the first time `key` is asked for and kept (the cameras never change)."""
+        if key not in self._derived:
+            self._derived[key] = compute()
+        return self._derived[key]
 
     @property
     def names(self) -> list[str]:
@@ -243,10 +249,7 @@ class Cameras(Sequence[Camera]):
                 h, w = fs.getNode("image_height"), fs.getNode("image_width")
                 size = (int(w.real()), int(h.real())) if not (h.empty() or w.empty()) else \
                     _size_for(image_size, path.stem, path)
-            try:
-                cams.append(_with_up(path.stem, *size, K, dist, rot.reshape(3, 3), T, up))
-            except CalibrationError as e:
-                raise CalibrationError(f"{path}: {e}") from None
+            cams.append(_with_up(path, path.stem, *size, K, dist, rot.reshape(3, 3), T, up))
         return cls(cams)
 
     @classmethod
@@ -261,17 +264,13 @@ class Cameras(Sequence[Camera]):
         for key, c in doc.items():
             if key == "metadata" or not isinstance(c, dict):
                 continue
-            try:
-                if c.get("fisheye"):
-                    raise CalibrationError("fisheye cameras are not supported")
+            if c.get("fisheye"):
+                raise CalibrationError(f"{path}: camera [{key}]: fisheye cameras are not supported")
+            with _malformed(f"{path}: camera [{key}]"):
                 R = cv2.Rodrigues(np.asarray(c["rotation"], float).reshape(3, 1))[0]
                 w, h = c["size"]
-                cams.append(_with_up(str(c.get("name", key)), int(w), int(h), c["matrix"],
+                cams.append(_with_up(path, str(c.get("name", key)), int(w), int(h), c["matrix"],
                                      c.get("distortions", []), R, c["translation"], up))
-            except CalibrationError as e:
-                raise CalibrationError(f"{path}: {e}") from None
-            except (KeyError, TypeError, ValueError) as e:
-                raise CalibrationError(f"{path}: camera [{key}]: {e!r}") from None
         return cls(cams)
 
 
@@ -300,7 +299,7 @@ def _size_for(image_size, name, path) -> tuple[int, int]:
 
 
 def check_principal_point(camera: Camera) -> None:
-    """Refuse a camera whose principal point is far from its image's centre: the sign of
+    """Refuse a camera whose principal point is far from its image's centre: the mark of
     a width and height given the wrong way round (1080×1920 for a 1920×1080 camera)."""
     cx, cy = camera.K[0, 2], camera.K[1, 2]
     w, h = camera.width, camera.height
@@ -311,18 +310,23 @@ def check_principal_point(camera: Camera) -> None:
                                f"of a {w}×{h} image{hint}")
 
 
-def _with_up(name, w, h, K, dist, R, t, up) -> Camera:
-    """A camera imported from another tool's files: axes converted, size checked."""
+def _with_up(source, name, w, h, K, dist, R, t, up) -> Camera:
+    """A camera imported from the file `source` of another tool: axes converted, size
+    checked; errors name the file."""
     if up not in ("z", "y"):
         raise CalibrationError(f"up must be 'z' or 'y', got {up!r}")
     R = np.asarray(R, float)
     if up == "y":
-        R = R @ _Y_UP_TO_Z_UP.T  # x_cam = R·X_file = R·Mᵀ·X_ours
+        R = R @ Y_UP_TO_Z_UP.T  # x_cam = R·X_file = R·Mᵀ·X_ours
     dist = np.ravel(np.asarray(dist if dist is not None else [], float))
-    if dist.size > 5:
-        raise CalibrationError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] are supported")
-    camera = Camera(name, w, h, K, dist, R, t)  # Camera pads [k1 k2 p1 p2] with k3 = 0
-    check_principal_point(camera)
+    try:
+        if dist.size > 5:
+            raise CalibrationError(f"camera {name!r}: {dist.size} distortion coefficients; only [k1 k2 p1 p2 k3] "
+                                   f"are supported")
+        camera = Camera(name, w, h, K, dist, R, t)  # Camera pads [k1 k2 p1 p2] with k3 = 0
+        check_principal_point(camera)
+    except CalibrationError as e:
+        raise CalibrationError(f"{source}: {e}") from None
     return camera
 
 
@@ -336,10 +340,7 @@ def _easymocap_cameras(fi, fe, intri, extri, image_size, up) -> list[Camera]:
             rot = cv2.Rodrigues(_yml_mat(fe, f"R_{n}", extri).reshape(3, 1))[0]
         T = _yml_mat(fe, f"T_{n}", extri).reshape(3)
         w, h = _yml_size(fi, n, image_size, intri)
-        try:
-            cams.append(_with_up(n, w, h, K, dist, rot, T, up))
-        except CalibrationError as e:
-            raise CalibrationError(f"{intri}: {e}") from None
+        cams.append(_with_up(intri, n, w, h, K, dist, rot, T, up))
     return cams
 
 
@@ -351,8 +352,8 @@ def _malformed(where):
         yield
     except CalibrationError:
         raise
-    except (cv2.error, SystemError, TypeError, ValueError, OverflowError) as e:
-        raise CalibrationError(f"{where}: malformed ({e})") from None
+    except (cv2.error, SystemError, KeyError, TypeError, ValueError, OverflowError) as e:
+        raise CalibrationError(f"{where}: malformed ({type(e).__name__}: {e})") from None
 
 
 @contextmanager

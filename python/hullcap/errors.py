@@ -11,8 +11,8 @@ into Python — as :class:`EngineError`.
 
 from __future__ import annotations
 
-__all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ModelError", "HullError",
-           "FitError", "TrackingError", "ResultsError", "EngineError"]
+__all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ViewError", "ModelError",
+           "HullError", "FitError", "TrackingError", "ResultsError", "EngineError"]
 
 
 class HullcapError(Exception):
@@ -30,6 +30,24 @@ class CalibrationError(HullcapError, ValueError):
 
 class SequenceError(HullcapError, ValueError):
     """A sequence folder: ``meta.json``, a frame, video, background or mask of a camera."""
+
+
+class ViewError(SequenceError):
+    """One camera's image or mask of one frame that cannot be used (missing, unreadable,
+    truncated, blank, of another size, past the end of its video): the tracker leaves that
+    view out of that frame.
+
+    Attributes:
+        file: the file at fault (the video, for a video's frame).
+        what: what is wrong with it, in words.
+        wrong_size: the image has another size than the camera's calibration.
+    """
+
+    def __init__(self, file, what: str, wrong_size: bool = False):
+        super().__init__(f"{file}: {what}")
+        self.file = str(file)
+        self.what = what
+        self.wrong_size = wrong_size
 
 
 class ModelError(HullcapError, ValueError):

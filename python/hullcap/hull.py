@@ -233,10 +233,8 @@ def capture_volume(cameras: Cameras, floor: float = 0.0, ceiling: float = 2.4, s
     least-squares meeting point, where a rig is aimed), over a square reaching the
     furthest camera, first every 4 `step` and then every `step` around what that found:
     a rig on one side of a room sees a volume its camera centres do not surround."""
-    key = ("capture_volume", floor, ceiling, step)
-    if key not in cameras._memo:
-        cameras._memo[key] = _capture_volume(cameras, floor, ceiling, step)
-    lo, hi = cameras._memo[key]
+    lo, hi = cameras.derived(("capture_volume", floor, ceiling, step),
+                             lambda: _capture_volume(cameras, floor, ceiling, step))
     return lo.copy(), hi.copy()
 
 

@@ -74,15 +74,18 @@ class ProblemLog:
     def extend(self, problems) -> None:
         """Take `problems` (from a resumed run) without warning again; those already
         here (the start-up checks, made again) are not repeated."""
+        known = set(self.items)
         for p in problems:
-            if p not in self.items:
+            if p not in known:
                 self.items.append(p)
+                known.add(p)
             self._warned.add(p.camera)
 
     def summary(self, limit: int = 4) -> str:
         """One line: how many views were left out in how many frames, the first few."""
-        views = [p for p in self.items if p.camera is not None and p.frame is not None]
-        other = [p for p in self.items if p not in views]
+        is_view = [p.camera is not None and p.frame is not None for p in self.items]
+        views = [p for p, v in zip(self.items, is_view) if v]
+        other = [p for p, v in zip(self.items, is_view) if not v]
         parts = []
         if views:
             frames = len({p.frame for p in views})

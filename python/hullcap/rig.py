@@ -69,7 +69,7 @@ def image_sizes(folder) -> dict[str, tuple[int, int]]:
 MIN_SURROUND = 180.0
 """Degrees around the person that the cameras should span (360° less the widest gap
 between them, seen from above); below it `describe` warns. With every camera on one side
-the hull is a wedge: on a rig spanning 53°, a person 0.5 m deep gave a hull 2.2 m deep."""
+the hull is a wedge: on a rig spanning 51°, a person 0.5 m deep gave a hull 2.2 m deep."""
 
 
 def surround(cameras: Cameras, centre) -> float:

@@ -2,9 +2,10 @@
 
 Nothing is loaded before it is asked for: ``seq.images(i)`` reads frame i of every camera,
 ``seq.masks(i)`` its silhouettes when the folder has them, ``seq.image(i, cam)`` one view.
-Each problem (a missing camera folder; a missing, unreadable, truncated, blank or wrongly
-sized image) raises :class:`~hullcap.errors.SequenceError` naming the file and camera, so
-that a caller can leave that one view out. :meth:`Sequence.frame_counts` says how many
+A problem of the folder raises :class:`~hullcap.errors.SequenceError`; one of a single
+view (a missing, unreadable, truncated, blank or wrongly sized image) its subclass
+:class:`~hullcap.errors.ViewError`, naming the file and camera, so that a caller can leave
+that one view out. :meth:`Sequence.frame_counts` says how many
 frames each camera has on disk (``meta.json`` may claim more).
 """
 
@@ -18,7 +19,7 @@ import numpy as np
 
 from hullcap._files import read_document
 from hullcap.cameras import Cameras
-from hullcap.errors import SequenceError
+from hullcap.errors import SequenceError, ViewError
 
 __all__ = ["Sequence"]
 
@@ -100,7 +101,7 @@ class Sequence:
         else:
             path, img = self.path / "videos" / f"{cam.name}.mp4", self._video_frame(cam, frame)
         if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
-            raise SequenceError(f"{path}: blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
+            raise ViewError(path, f"blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
         return img
 
     def check_image_sizes(self) -> None:
@@ -112,10 +113,10 @@ class Sequence:
             for frame in sorted({0, self.n_frames - 1}):
                 try:
                     self.image(frame, cam.name)
-                except SequenceError as e:
-                    wrong.append("is calibrated for" in str(e) and str(e))
+                except ViewError as e:
+                    wrong.append(e if e.wrong_size else None)
             if wrong and all(wrong):
-                raise SequenceError(wrong[0])
+                raise wrong[0]
 
     def frame_counts(self, silhouettes: bool = False) -> dict[str, int]:
         """Frames on disk per camera: numbered images in ``frames/<cam>/``, else the
@@ -152,23 +153,23 @@ class Sequence:
         try:
             data = path.read_bytes()
         except FileNotFoundError:
-            raise SequenceError(f"{path}: missing (camera {cam.name!r})") from None
+            raise ViewError(path, f"missing (camera {cam.name!r})") from None
         except OSError as e:
-            raise SequenceError(f"{path}: cannot be read ({e.strerror}; camera {cam.name!r})") from None
+            raise ViewError(path, f"cannot be read ({e.strerror}; camera {cam.name!r})") from None
         # libjpeg decodes a cut-off JPEG into a half-grey image with only a console message
         # naming no file, and libpng complains on the console too: a file must end with its
         # format's end marker (JPEG's EOI, PNG's IEND chunk).
         if data.startswith(b"\xff\xd8") and not data.rstrip(b"\0").endswith(b"\xff\xd9"):
-            raise SequenceError(f"{path}: truncated JPEG (camera {cam.name!r})")
+            raise ViewError(path, f"truncated JPEG (camera {cam.name!r})")
         if data.startswith(b"\x89PNG") and not data.endswith(b"IEND\xaeB`\x82"):
-            raise SequenceError(f"{path}: truncated PNG (camera {cam.name!r})")
+            raise ViewError(path, f"truncated PNG (camera {cam.name!r})")
         img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE) \
             if data else None
         if img is None:
-            raise SequenceError(f"{path}: not a readable image (camera {cam.name!r})")
+            raise ViewError(path, f"not a readable image (camera {cam.name!r})")
         if img.shape[:2] != (cam.height, cam.width):
-            raise SequenceError(f"{path}: image is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} "
-                             f"is calibrated for {cam.width}×{cam.height}")
+            raise ViewError(path, f"image is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is calibrated for "
+                                  f"{cam.width}×{cam.height}", wrong_size=True)
         return img
 
     def _video_frame(self, cam, frame: int) -> np.ndarray:
@@ -177,18 +178,18 @@ class Sequence:
         if cap is None:
             cap = cv2.VideoCapture(str(path))
             if not cap.isOpened():
-                raise SequenceError(f"{path}: not a readable video (camera {cam.name!r})")
+                raise ViewError(path, f"not a readable video (camera {cam.name!r})")
             self._videos[cam.name] = cap
             self._video_pos[cam.name] = 0
         if self._video_pos[cam.name] != frame:
             cap.set(cv2.CAP_PROP_POS_FRAMES, frame)
         ok, img = cap.read()
         if not ok:
-            raise SequenceError(f"{path}: no frame {frame} (camera {cam.name!r})")
+            raise ViewError(path, f"no frame {frame} (camera {cam.name!r})")
         self._video_pos[cam.name] = frame + 1
         if img.shape[:2] != (cam.height, cam.width):
-            raise SequenceError(f"{path}: video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} "
-                             f"is calibrated for {cam.width}×{cam.height}")
+            raise ViewError(path, f"video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is calibrated for "
+                                  f"{cam.width}×{cam.height}", wrong_size=True)
         return img
 
     def close(self) -> None:

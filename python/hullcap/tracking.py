@@ -42,7 +42,7 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.body import BodyModel
-from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError
+from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
 from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap.hull import HullReport, capture_volume, check_bounds, visual_hull
@@ -185,7 +185,7 @@ class Tracker:
             for cam in seq.cameras:
                 try:
                     masks.append(seq.mask(frame, cam.name))
-                except SequenceError as e:  # a missing or broken mask: leave that view out
+                except ViewError as e:  # a missing or broken mask: leave that view out
                     self._view_left_out(frame, cam, e)
                     masks.append(np.zeros((cam.height, cam.width), np.uint8))
         else:
@@ -209,18 +209,15 @@ class Tracker:
         for cam in self.sequence.cameras:
             try:
                 images.append(self.sequence.image(frame, cam.name))
-            except SequenceError as e:
+            except ViewError as e:
                 self._view_left_out(frame, cam, e)
                 images.append(None)
         return images
 
-    def _view_left_out(self, frame: int, cam, error: Exception) -> None:
-        if (frame, cam.name) in self._broken:
-            return
-        self._broken.add((frame, cam.name))
-        text = str(error)
-        file, _, what = text.partition(": ") if text.startswith(str(self.sequence.path)) else (None, "", text)
-        self.problems.add(frame, what, cam.name, file)
+    def _view_left_out(self, frame: int, cam, error: ViewError) -> None:
+        if (frame, cam.name) not in self._broken:
+            self._broken.add((frame, cam.name))
+            self.problems.add(frame, error.what, cam.name, error.file)
 
     @property
     def _hull_tolerance(self) -> int:

@@ -5,10 +5,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from hullcap.errors import ResultsError
+from hullcap.cameras import Y_UP_TO_Z_UP
+from hullcap.errors import OptionsError, ResultsError
 
-Z_UP_TO_Y_UP = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-"""(x, y, z) ours (z up) → (x, z, −y) in the y-up convention of BVH and glTF: −90° about x."""
+Z_UP_TO_Y_UP = Y_UP_TO_Z_UP.T
+"""(x, y, z) ours (z up) → (x, z, −y) in the y-up convention of BVH, glTF and OpenSim."""
+
+
+def change_of_axes(up: str, what: str) -> np.ndarray:
+    """The rotation from our world to a file's whose up axis is `up` ("y" or "z");
+    `what` names the format in the error."""
+    if up not in ("y", "z"):
+        raise OptionsError(f"{what} up axis must be 'y' or 'z', got {up!r}")
+    return Z_UP_TO_Y_UP if up == "y" else np.eye(3)
 
 
 def local_motion(path, model, root_translation, root_rotation, theta) -> tuple[np.ndarray, np.ndarray]:

@@ -21,7 +21,7 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.errors import OptionsError
-from hullcap.export._motion import Z_UP_TO_Y_UP, local_motion
+from hullcap.export._motion import change_of_axes, local_motion
 
 __all__ = ["write_bvh", "bvh_skeleton", "zxy_degrees"]
 
@@ -71,7 +71,6 @@ def zxy_degrees(R: np.ndarray) -> np.ndarray:
 
 
 UNITS = {"m": 1.0, "cm": 100.0}
-UP_AXES = ("y", "z")
 
 
 def write_bvh(path, model, root_translation, root_rotation, theta, fps: float, *, up: str = "y",
@@ -79,14 +78,12 @@ def write_bvh(path, model, root_translation, root_rotation, theta, fps: float, *
     """Write the motion (F frames of root placement and joint angles; failed frames, NaN,
     repeat the last good one) as BVH, atomically: `up` "y" (what readers assume) or "z"
     (our world), lengths in `units` "m" or "cm"."""
-    if up not in UP_AXES:
-        raise OptionsError(f"BVH up axis must be one of {UP_AXES}, got {up!r}")
+    C = change_of_axes(up, "BVH")
     if units not in UNITS:
         raise OptionsError(f"BVH units must be one of {tuple(UNITS)}, got {units!r}")
     names, parents, offsets, carries = bvh_skeleton(model)
     local, root_position = local_motion(path, model, root_translation, root_rotation, theta)
-    # A change of axes C maps every position p to C·p and every rotation R to C·R·Cᵀ.
-    C = Z_UP_TO_Y_UP if up == "y" else np.eye(3)
+    # The change of axes C maps every position p to C·p and every rotation R to C·R·Cᵀ.
     local = C @ local @ C.T
     offsets = UNITS[units] * offsets @ C.T
     root_position = UNITS[units] * root_position @ C.T

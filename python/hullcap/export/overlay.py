@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 from hullcap._files import publish
-from hullcap.errors import SequenceError
+from hullcap.errors import ViewError
 from hullcap.progress import progress
 from hullcap.render import render_depth
 
@@ -103,7 +103,7 @@ def _readable(sequence, frame: int, cam) -> np.ndarray:
     problems.json says why)."""
     try:
         return sequence.image(frame, cam.name)
-    except SequenceError:
+    except ViewError:
         img = np.full((cam.height, cam.width, 3), 96, np.uint8)
         cv2.putText(img, "image unreadable", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (255, 255, 255), 2, cv2.LINE_AA)
         return img

@@ -17,7 +17,7 @@ import numpy as np
 
 from hullcap._files import atomic_write
 from hullcap.errors import OptionsError, ResultsError
-from hullcap.export._motion import Z_UP_TO_Y_UP
+from hullcap.export._motion import change_of_axes
 
 __all__ = ["write_trc"]
 
@@ -29,12 +29,10 @@ def write_trc(path, joint_names, joints, fps: float, *, units: str = "mm", up: s
     in `units` "mm" or "m", with `up` "y" (OpenSim) or "z" (our world)."""
     if units not in UNITS:
         raise OptionsError(f"TRC units must be one of {tuple(UNITS)}, got {units!r}")
-    if up not in ("y", "z"):
-        raise OptionsError(f"TRC up axis must be 'y' or 'z', got {up!r}")
     joints = np.asarray(joints, float)
     if joints.ndim != 3 or joints.shape[1:] != (len(joint_names), 3):
         raise ResultsError(f"joints must have shape (F, {len(joint_names)}, 3), got {joints.shape}")
-    C = Z_UP_TO_Y_UP if up == "y" else np.eye(3)
+    C = change_of_axes(up, "TRC")
     points = UNITS[units] * joints @ C.T
     frames, markers = joints.shape[:2]
     lines = [
