@@ -2,8 +2,9 @@
 
 use crate::KdTreeError;
 use crate::build::NormalKdTree;
+use crate::descend::Candidates;
 use crate::gate::{Gate, PreparedGate};
-use crate::keys::{Key, dist2};
+use crate::keys::Key;
 use crate::nearest::Neighbor;
 
 impl NormalKdTree {
@@ -41,7 +42,7 @@ impl NormalKdTree {
 
     fn k_nearest_key(&self, q: &Key, gate: &PreparedGate, best: &mut KBest, row: &mut [Neighbor]) {
         best.reset(gate.radius2);
-        self.descend_k(0, q, &mut [0.0; 6], 0.0, best);
+        self.descend(0, q, &mut [0.0; 6], 0.0, best);
         for (slot, &(d2, pos)) in row.iter_mut().zip(&best.items) {
             if pos != u32::MAX && gate.passes(q, &self.keys[pos as usize]) {
                 *slot = Neighbor {
@@ -49,34 +50,6 @@ impl NormalKdTree {
                     distance: d2.sqrt(),
                 };
             }
-        }
-    }
-
-    fn descend_k(&self, node: u32, q: &Key, off: &mut [f64; 6], rd: f64, best: &mut KBest) {
-        let nd = self.nodes[node as usize];
-        if nd.is_leaf() {
-            for slot in nd.a..nd.b {
-                let d2 = dist2(q, &self.keys[slot as usize]);
-                if d2 < best.worst() {
-                    best.insert(d2, slot);
-                }
-            }
-            return;
-        }
-        let dim = nd.dim as usize;
-        let diff = q[dim] - nd.split;
-        let (near, far) = if diff <= 0.0 {
-            (nd.a, nd.b)
-        } else {
-            (nd.b, nd.a)
-        };
-        self.descend_k(near, q, off, rd, best);
-        let old = off[dim];
-        let far_rd = rd - old * old + diff * diff;
-        if far_rd < best.worst() {
-            off[dim] = diff;
-            self.descend_k(far, q, off, far_rd, best);
-            off[dim] = old;
         }
     }
 }
@@ -98,12 +71,16 @@ impl KBest {
             .iter_mut()
             .for_each(|it| *it = (radius2, u32::MAX));
     }
+}
+
+impl Candidates for KBest {
+    /// The k-th best so far.
     #[inline]
-    fn worst(&self) -> f64 {
+    fn bound(&self) -> f64 {
         self.items[self.items.len() - 1].0
     }
-    /// Inserts a pair known to beat the worst, keeping the order.
-    fn insert(&mut self, d2: f64, slot: u32) {
+    /// Inserts a pair known to beat the k-th, keeping the order.
+    fn keep(&mut self, d2: f64, slot: u32) {
         let mut i = self.items.len() - 1;
         while i > 0 && self.items[i - 1].0 > d2 {
             self.items[i] = self.items[i - 1];
@@ -117,7 +94,7 @@ impl KBest {
 mod tests {
     use super::*;
     use crate::BuildOptions;
-    use crate::keys;
+    use crate::keys::{self, dist2};
     use crate::testing::{adversarial_clouds, random_cloud};
 
     /// All distances from a query to every key, sorted, gated like the tree.

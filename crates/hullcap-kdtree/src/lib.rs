@@ -29,6 +29,7 @@
 
 mod batch;
 mod build;
+mod descend;
 mod error;
 mod gate;
 mod keys;

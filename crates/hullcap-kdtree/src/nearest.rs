@@ -2,8 +2,9 @@
 
 use crate::KdTreeError;
 use crate::build::NormalKdTree;
+use crate::descend::Candidates;
 use crate::gate::{Gate, PreparedGate};
-use crate::keys::{Key, dist2};
+use crate::keys::Key;
 
 /// The answer for one query.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,37 +72,6 @@ impl NormalKdTree {
             distance: best.dist2.sqrt(),
         }
     }
-
-    /// Depth-first search with incremental distance to the cell (Arya & Mount): `off[d]` is
-    /// the query's offset from the current cell along `d`, `rd` = Σ off², a lower bound on
-    /// the squared distance from `q` to any key in the cell.
-    fn descend(&self, node: u32, q: &Key, off: &mut [f64; 6], rd: f64, best: &mut Best) {
-        let nd = self.nodes[node as usize];
-        if nd.is_leaf() {
-            for slot in nd.a..nd.b {
-                let d2 = dist2(q, &self.keys[slot as usize]);
-                if d2 < best.dist2 {
-                    *best = Best { dist2: d2, slot };
-                }
-            }
-            return;
-        }
-        let dim = nd.dim as usize;
-        let diff = q[dim] - nd.split;
-        let (near, far) = if diff <= 0.0 {
-            (nd.a, nd.b)
-        } else {
-            (nd.b, nd.a)
-        };
-        self.descend(near, q, off, rd, best);
-        let old = off[dim];
-        let far_rd = rd - old * old + diff * diff;
-        if far_rd < best.dist2 {
-            off[dim] = diff;
-            self.descend(far, q, off, far_rd, best);
-            off[dim] = old;
-        }
-    }
 }
 
 #[derive(Clone, Copy)]
@@ -109,6 +79,17 @@ struct Best {
     dist2: f64,
     /// Position in leaf order; `u32::MAX` = none found yet.
     slot: u32,
+}
+
+impl Candidates for Best {
+    #[inline]
+    fn bound(&self) -> f64 {
+        self.dist2
+    }
+    #[inline]
+    fn keep(&mut self, dist2: f64, slot: u32) {
+        *self = Best { dist2, slot };
+    }
 }
 
 #[cfg(test)]
