@@ -54,3 +54,9 @@ def test_engine_errors_arrive_as_their_kind():
         hullcap.skin_weights(vertices, model.faces, links, groups=groups)
     with pytest.raises(errors.ModelError, match="not a rotation"):
         model.pose(np.zeros(model.n_dofs), 2 * np.eye(3), np.zeros(3))
+    with pytest.raises(errors.ArrayError, match=r"points must have shape \(N, 3\)"):
+        hullcap.NormalKDTree(np.zeros((4, 2)), np.zeros((4, 3)))
+    with pytest.raises(errors.ArrayError, match="faces.* outside"):
+        hullcap.skin_weights(model.vertices, model.faces + len(model.vertices), links, groups=groups)
+    with pytest.raises(errors.ArrayError, match="k must be at least 1"):
+        hullcap.NormalKDTree(np.zeros((4, 3)), np.ones((4, 3))).query_k(np.zeros((1, 3)), np.ones((1, 3)), 0)

@@ -2,8 +2,9 @@
 
 Errors: bad input raises the class of its kind from :mod:`hullcap.errors` (``FitError``
 for targets, trees and fits, ``ModelError`` for meshes, rigs and shapes, ``OptionsError``
-for ``FitOptions``; each a ``ValueError``), argument arrays of the wrong shape ``ValueError``, and a fault of the
-engine itself ``EngineError``."""
+for ``FitOptions``, ``ArrayError`` for an argument array of the wrong dtype or shape or a
+count out of range; each a ``ValueError``), and a fault of the engine itself
+``EngineError``."""
 
 from typing import Literal, final
 
@@ -38,8 +39,8 @@ class NormalKDTree:
         leaf_size: most points per leaf bucket.
 
     Raises:
-        ValueError: wrong shape or dtype, NaN/inf, a zero-length normal, no points,
-            ``normal_weight <= 0``, ``leaf_size < 1``.
+        ArrayError: wrong shape or dtype, ``leaf_size < 1``.
+        FitError: NaN/inf, a zero-length normal, no points, ``normal_weight <= 0``.
     """
 
     def __init__(

@@ -4,15 +4,15 @@ frame or a fit that found nobody.
 Every one derives from :class:`HullcapError`, and from ``ValueError`` when the fault lies
 in what was given (a file, an array, an option), so ``except ValueError`` keeps working.
 Messages name the file, camera, frame or array at fault. Errors of the engine arrive as
-the class of their kind (a bad mesh or link model as :class:`ModelError`, a bad target or
-fit input as :class:`FitError`), and an engine bug — a panic, caught before it can cross
-into Python — as :class:`EngineError`.
+the class of their kind (an argument it cannot take as :class:`ArrayError`, a bad mesh or
+link model as :class:`ModelError`, a bad target or fit input as :class:`FitError`), and
+an engine bug — a panic, caught before it can cross into Python — as :class:`EngineError`.
 """
 
 from __future__ import annotations
 
 __all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ViewError", "ModelError",
-           "HullError", "FitError", "TrackingError", "ResultsError", "EngineError"]
+           "HullError", "FitError", "ArrayError", "TrackingError", "ResultsError", "EngineError"]
 
 
 class HullcapError(Exception):
@@ -60,6 +60,12 @@ class HullError(HullcapError, ValueError):
 
 class FitError(HullcapError, ValueError):
     """The inputs of a fit or of the subject's model; a hull that shows no person."""
+
+
+class ArrayError(HullcapError, ValueError):
+    """An array or count given to the engine that it cannot take: not an array, of the wrong
+    dtype or shape, an index out of range, a count below its minimum. The message names
+    the argument."""
 
 
 class TrackingError(HullcapError, ValueError):

@@ -2,8 +2,8 @@
 //! float64 view out (copied once only when the input is not already one), with errors that
 //! name the argument.
 
+use crate::call::ArrayError;
 use numpy::{PyArray1, PyReadonlyArrayDyn};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
 /// A validated float64 array whose rows have `W` values, borrowed from Python for as long
@@ -34,7 +34,7 @@ fn contiguous<'py>(
     let np = obj.py().import("numpy")?;
     let arr = np
         .call_method1("asarray", (obj,))
-        .map_err(|e| PyValueError::new_err(format!("{name} is not an array: {e}")))?;
+        .map_err(|e| ArrayError::new_err(format!("{name} is not an array: {e}")))?;
     let kind_of = arr.getattr("dtype")?;
     let kind: String = kind_of.getattr("kind")?.extract()?;
     let allowed: &[&str] = if dtype == "int64" {
@@ -48,7 +48,7 @@ fn contiguous<'py>(
         } else {
             "real numbers"
         };
-        return Err(PyValueError::new_err(format!(
+        return Err(ArrayError::new_err(format!(
             "{name} must hold {what}, got dtype {}",
             kind_of.str()?
         )));
@@ -58,7 +58,7 @@ fn contiguous<'py>(
         let want: Vec<String> = std::iter::once("N".to_owned())
             .chain(tail.iter().map(|t| t.to_string()))
             .collect();
-        return Err(PyValueError::new_err(format!(
+        return Err(ArrayError::new_err(format!(
             "{name} must have shape ({}), got {shape:?}",
             want.join(", ")
         )));
@@ -91,7 +91,7 @@ pub(crate) fn flat_indices(
     let arr: PyReadonlyArrayDyn<'_, i64> = contiguous(obj, name, &[width], "int64")?.extract()?;
     let flat = arr.as_slice().unwrap_or(&[]);
     if let Some(at) = flat.iter().position(|&i| i < 0 || i as usize >= bound) {
-        return Err(PyValueError::new_err(format!(
+        return Err(ArrayError::new_err(format!(
             "{name}[{}] holds {}, outside 0..{bound}",
             at / width.max(1),
             flat[at]
@@ -125,12 +125,11 @@ pub(crate) fn flat_floats(
 /// A count argument from Python (`k`, `leaf_size`, `threads`) checked to be ≥ `min`.
 pub(crate) fn count(value: i64, name: &str, min: i64) -> PyResult<usize> {
     if value < min {
-        return Err(PyValueError::new_err(format!(
+        return Err(ArrayError::new_err(format!(
             "{name} must be at least {min}, got {value}"
         )));
     }
-    usize::try_from(value)
-        .map_err(|_| PyValueError::new_err(format!("{name} is too large: {value}")))
+    usize::try_from(value).map_err(|_| ArrayError::new_err(format!("{name} is too large: {value}")))
 }
 
 /// `threads=None` → all cores; otherwise at least 1.

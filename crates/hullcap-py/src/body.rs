@@ -1,6 +1,7 @@
 //! The body model's engine: geodesic skin weights and the rig (skinning, derivatives).
 
 use crate::arrays::{self, float_rows, index_rows, rows3};
+use crate::call::ArrayError;
 use crate::call::detached;
 use hullcap_body::{
     BodyError, Dof, Rig as EngineRig, RootPose, Shape as EngineShape, ShapeParameter, Skeleton,
@@ -53,9 +54,7 @@ pub(crate) fn skin_weights<'py>(
             .iter()
             .map(|&x| {
                 u32::try_from(x).map_err(|_| {
-                    pyo3::exceptions::PyValueError::new_err(format!(
-                        "groups holds {x}, a negative or huge index"
-                    ))
+                    ArrayError::new_err(format!("groups holds {x}, a negative or huge index"))
                 })
             })
             .collect::<PyResult<_>>()?,
@@ -130,9 +129,8 @@ pub(crate) fn root_pose(
     let mut root = RootPose::default();
     if let Some(r) = rotation {
         let rows = float_rows::<9>(
-            &r.call_method1("reshape", ((1, 3, 3),)).map_err(|_| {
-                pyo3::exceptions::PyValueError::new_err("root_rotation must be a 3×3 matrix")
-            })?,
+            &r.call_method1("reshape", ((1, 3, 3),))
+                .map_err(|_| ArrayError::new_err("root_rotation must be a 3×3 matrix"))?,
             "root_rotation",
             &[3, 3],
         )?;
@@ -140,9 +138,8 @@ pub(crate) fn root_pose(
     }
     if let Some(t) = translation {
         let rows = float_rows::<3>(
-            &t.call_method1("reshape", ((1, 3),)).map_err(|_| {
-                pyo3::exceptions::PyValueError::new_err("root_translation must have 3 values")
-            })?,
+            &t.call_method1("reshape", ((1, 3),))
+                .map_err(|_| ArrayError::new_err("root_translation must have 3 values"))?,
             "root_translation",
             &[3],
         )?;
@@ -195,7 +192,7 @@ impl Rig {
         let k = match shape.as_slice() {
             [_, k] if *k >= 1 => *k,
             _ => {
-                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                return Err(ArrayError::new_err(format!(
                     "weights must have shape (V, K) with K >= 1, got {shape:?}"
                 )));
             }
@@ -289,7 +286,7 @@ impl Shape {
     ) -> PyResult<Self> {
         use crate::call::IntoPyErr;
         if stretches.len() != shifts.len() || shifts.len() != centres.len() {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            return Err(ArrayError::new_err(format!(
                 "stretches, shifts and centres must list the same parameters: {}, {} and {}",
                 stretches.len(),
                 shifts.len(),
@@ -297,11 +294,8 @@ impl Shape {
             )));
         }
         let link = |j: i64| {
-            usize::try_from(j).map_err(|_| {
-                pyo3::exceptions::PyValueError::new_err(format!(
-                    "shape: link index {j} is negative"
-                ))
-            })
+            usize::try_from(j)
+                .map_err(|_| ArrayError::new_err(format!("shape: link index {j} is negative")))
         };
         let mut params = Vec::with_capacity(stretches.len());
         let vector = |c: &Bound<'_, PyAny>, what| -> PyResult<Vector3<f64>> {

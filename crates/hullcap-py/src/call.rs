@@ -13,6 +13,7 @@ pyo3::import_exception!(hullcap.errors, ModelError);
 pyo3::import_exception!(hullcap.errors, FitError);
 pyo3::import_exception!(hullcap.errors, EngineError);
 pyo3::import_exception!(hullcap.errors, OptionsError);
+pyo3::import_exception!(hullcap.errors, ArrayError);
 
 /// An engine error and the Python exception class it becomes.
 pub(crate) trait IntoPyErr {

@@ -2,11 +2,11 @@
 
 use crate::arrays::rows3;
 use crate::body::{Rig, Shape, root_pose};
+use crate::call::ArrayError;
 use crate::call::detached;
 use crate::options::FitOptions;
 use hullcap_icp::{FitStats, Params, ShapePrior, Target as EngineTarget};
 use numpy::{PyArray1, PyArrayMethods};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -97,7 +97,7 @@ fn model_points(
             .iter()
             .map(|&i| {
                 u32::try_from(i).map_err(|_| {
-                    PyValueError::new_err(format!("model_points holds {i}, not a vertex index"))
+                    ArrayError::new_err(format!("model_points holds {i}, not a vertex index"))
                 })
             })
             .collect(),
@@ -111,7 +111,7 @@ fn dof_groups(groups: Vec<Vec<i64>>) -> PyResult<Vec<Vec<usize>>> {
             g.iter()
                 .map(|&d| {
                     usize::try_from(d).map_err(|_| {
-                        PyValueError::new_err(format!("groups holds a negative index {d}"))
+                        ArrayError::new_err(format!("groups holds a negative index {d}"))
                     })
                 })
                 .collect()
@@ -172,7 +172,7 @@ pub(crate) fn fit_shape<'py>(
     let engine_options = options.engine()?;
     let n = targets.len();
     if thetas.len() != n || root_rotations.len() != n || root_translations.len() != n {
-        return Err(PyValueError::new_err(format!(
+        return Err(ArrayError::new_err(format!(
             "fit_shape: {n} targets but {} thetas, {} root rotations, {} root translations",
             thetas.len(),
             root_rotations.len(),
@@ -232,7 +232,7 @@ pub(crate) fn evaluate<'py>(
 ) -> PyResult<Vec<Bound<'py, PyDict>>> {
     let engine_options = options.engine()?;
     if root_rotations.len() != thetas.len() || root_translations.len() != thetas.len() {
-        return Err(PyValueError::new_err(format!(
+        return Err(ArrayError::new_err(format!(
             "evaluate: {} thetas but {} root rotations and {} root translations",
             thetas.len(),
             root_rotations.len(),
