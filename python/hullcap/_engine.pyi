@@ -11,7 +11,7 @@ from typing import Literal, final
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "Rig", "rasterize", "FitOptions",
+__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize", "FitOptions",
            "Target", "fit", "Shape", "fit_shape", "evaluate"]
 
 __version__: str
@@ -130,6 +130,18 @@ def link_distances(
     """The geodesic distances behind ``skin_weights``: (L, V) x_ij, (V, L) direct arc
     lengths (inf where the arc crosses the mesh), and the seconds spent on the
     segment-mesh tests, on building the edge graph and on Dijkstra (all links)."""
+
+def link_tree_problem(
+    parents: list[int],
+    origins: ArrayLike3,
+    dof_links: list[int],
+    dof_axes: ArrayLike3,
+    dof_limits: npt.ArrayLike,
+) -> tuple[int | None, str] | None:
+    """The engine's check of a link tree (the one ``Rig`` makes): None when it is sound,
+    else (the link at fault, or None when no one link is, and the problem in words).
+    Parents come before their children, only link 0 is the root, each link's DOF are
+    listed together, axes are non-zero and limits ordered (radians)."""
 
 @final
 class Rig:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hullcap._engine import link_tree_problem
 from hullcap._files import atomic_write, read_document
 from hullcap.errors import ModelError
 
@@ -160,6 +161,7 @@ def _parse(spec: dict, source: str) -> LinkModel:
     names, parents, origins, segments, joints = [], [], [], [], []
     dof_names, dof_links, axes, limits = [], [], [], []
     index: dict[str, int] = {}
+    every_link = {link.get("name"): j for j, link in reversed(list(enumerate(spec["links"])))}
     for j, link in enumerate(spec["links"]):
         name = link.get("name")
         where = f"link {name!r}" if name else f"link #{j}"
@@ -174,11 +176,10 @@ def _parse(spec: dict, source: str) -> LinkModel:
             parents.append(-1)
         elif parent is None:
             fail(f"{where}: only the first link may be the root (parent null)")
-        elif parent not in index:
-            known = parent in {l.get("name") for l in spec["links"]}
-            fail(f"{where}: parent {parent!r} " + ("is defined after it (a cycle, or links out of order: parents come first)" if known else "is not a link"))
+        elif parent not in every_link:
+            fail(f"{where}: parent {parent!r} is not a link")
         else:
-            parents.append(index[parent])
+            parents.append(every_link[parent])  # the engine checks the order below
         index[name] = j
         names.append(name)
         joints.append(link.get("joint", name))
@@ -189,12 +190,8 @@ def _parse(spec: dict, source: str) -> LinkModel:
         for d in link.get("dofs", []):
             dwhere = f"{where}: DOF {d.get('name')!r}"
             axis = vec(d.get("axis"), f"{dwhere}: axis")
-            if abs(np.linalg.norm(axis) - 1.0) > 1e-6:
-                fail(f"{dwhere}: axis must be a unit vector, got {d.get('axis')!r}")
             lim = vec(d.get("limits"), f"{dwhere}: limits (degrees)", (2,))
-            if not lim[0] <= lim[1]:
-                fail(f"{dwhere}: limits reversed ({lim[0]} > {lim[1]})")
-            if not (-360 <= lim[0] and lim[1] <= 360):
+            if not (-360 <= lim.min() and lim.max() <= 360):
                 fail(f"{dwhere}: limits must lie within ±360 degrees")
             if not isinstance(d.get("name"), str) or d["name"] in dof_names:
                 fail(f"{dwhere}: DOF names must be unique strings")
@@ -202,6 +199,13 @@ def _parse(spec: dict, source: str) -> LinkModel:
             dof_links.append(j)
             axes.append(axis)
             limits.append(np.radians(lim))
+    dof_links = np.array(dof_links, dtype=np.int64)
+    axes, limits = np.array(axes).reshape(-1, 3), np.array(limits).reshape(-1, 2)
+    problem = link_tree_problem(parents, np.array(origins), dof_links.tolist(), axes, limits)
+    if problem is not None:
+        link, what = problem
+        fail(what if link is None else f"link {names[link]!r}: {what}")
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
     if len(set(joints)) != len(joints):
         fail("two links name the same joint")
     s_names, s_links, s_segs = [], [], []
@@ -234,7 +238,7 @@ def _parse(spec: dict, source: str) -> LinkModel:
             if jn in grouped:
                 fail(f"hierarchy: joint {jn!r} is in two groups")
             grouped.add(jn)
-            dofs += [d for d, l in enumerate(dof_links) if l == joints.index(jn)]
+            dofs += np.flatnonzero(dof_links == joints.index(jn)).tolist()
         hierarchy.append(tuple(sorted(dofs)))
     moving = {joints[l] for l in dof_links}
     if spec.get("hierarchy") and moving - grouped:
@@ -242,8 +246,7 @@ def _parse(spec: dict, source: str) -> LinkModel:
     return LinkModel(
         names=tuple(names), parents=np.array(parents), origins=np.array(origins),
         segments=np.array(segments), joints=tuple(joints), dof_names=tuple(dof_names),
-        dof_links=np.array(dof_links, dtype=np.int64), dof_axes=np.array(axes).reshape(-1, 3),
-        dof_limits=np.array(limits).reshape(-1, 2), structure_names=tuple(s_names),
+        dof_links=dof_links, dof_axes=axes, dof_limits=limits, structure_names=tuple(s_names),
         structure_links=np.array(s_links, dtype=np.int64),
         structure_segments=np.array(s_segs).reshape(-1, 2, 3),
         joint_names=tuple(joint_names),

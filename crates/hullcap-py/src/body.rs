@@ -148,6 +148,57 @@ pub(crate) fn root_pose(
     Ok(root)
 }
 
+/// The engine's skeleton from the link tree's arrays: the outer error is an argument it
+/// cannot take, the inner one the engine's verdict on the tree.
+fn skeleton(
+    parents: Vec<i64>,
+    origins: &Bound<'_, PyAny>,
+    dof_links: Vec<i64>,
+    dof_axes: &Bound<'_, PyAny>,
+    dof_limits: &Bound<'_, PyAny>,
+) -> PyResult<Result<Skeleton, BodyError>> {
+    let origins = rows3(origins, "origins")?;
+    let axes = rows3(dof_axes, "dof_axes")?;
+    let limits = float_rows::<2>(dof_limits, "dof_limits", &[2])?;
+    if dof_links.len() != axes.rows().len() || dof_links.len() != limits.rows().len() {
+        return Ok(Err(BodyError::WrongLength {
+            array: "dof_axes/dof_limits",
+            got: axes.rows().len(),
+            expected: dof_links.len(),
+        }));
+    }
+    let dofs = dof_links
+        .iter()
+        .zip(axes.rows().iter().zip(limits.rows()))
+        .map(|(&link, (axis, lim))| Dof {
+            link: usize::try_from(link).unwrap_or(usize::MAX),
+            axis: Vector3::from(*axis),
+            lower: lim[0],
+            upper: lim[1],
+        })
+        .collect();
+    Ok(Skeleton::new(&parents, origins.rows(), dofs))
+}
+
+/// What the engine finds wrong with a link tree, as (link at fault or None, problem), or
+/// None when it is sound; see `_engine.pyi`.
+#[pyfunction]
+pub(crate) fn link_tree_problem(
+    parents: Vec<i64>,
+    origins: &Bound<'_, PyAny>,
+    dof_links: Vec<i64>,
+    dof_axes: &Bound<'_, PyAny>,
+    dof_limits: &Bound<'_, PyAny>,
+) -> PyResult<Option<(Option<usize>, String)>> {
+    Ok(
+        match skeleton(parents, origins, dof_links, dof_axes, dof_limits)? {
+            Ok(_) => None,
+            Err(BodyError::BadLink { link, problem }) => Some((Some(link), problem)),
+            Err(other) => Some((None, other.to_string())),
+        },
+    )
+}
+
 #[pymethods]
 impl Rig {
     #[new]
@@ -164,29 +215,8 @@ impl Rig {
         weights: &Bound<'_, PyAny>,
     ) -> PyResult<Self> {
         use crate::call::IntoPyErr;
-        let origins = rows3(origins, "origins")?;
-        let axes = rows3(dof_axes, "dof_axes")?;
-        let limits = float_rows::<2>(dof_limits, "dof_limits", &[2])?;
-        if dof_links.len() != axes.rows().len() || dof_links.len() != limits.rows().len() {
-            return Err(BodyError::WrongLength {
-                array: "dof_axes/dof_limits",
-                got: axes.rows().len(),
-                expected: dof_links.len(),
-            }
-            .into_py_err());
-        }
-        let dofs = dof_links
-            .iter()
-            .zip(axes.rows().iter().zip(limits.rows()))
-            .map(|(&link, (axis, lim))| Dof {
-                link: usize::try_from(link).unwrap_or(usize::MAX),
-                axis: Vector3::from(*axis),
-                lower: lim[0],
-                upper: lim[1],
-            })
-            .collect();
-        let skeleton =
-            Skeleton::new(&parents, origins.rows(), dofs).map_err(IntoPyErr::into_py_err)?;
+        let skeleton = skeleton(parents, origins, dof_links, dof_axes, dof_limits)?
+            .map_err(IntoPyErr::into_py_err)?;
         let np = weights.py().import("numpy")?;
         let shape: Vec<usize> = np.call_method1("shape", (weights,))?.extract()?;
         let k = match shape.as_slice() {
