@@ -37,7 +37,7 @@ paper: $(ENGINE)
 
 # The CLI reference, generated from the parser.
 docs: $(ENGINE)
-	COLUMNS=100 $(PY) -c "from hullcap.cli import reference; print(reference())" > docs/cli.md
+	COLUMNS=100 $(PY) -c "from hullcap._cli import reference; print(reference())" > docs/cli.md
 
 wheel: $(PY)
 	$(VENV)/bin/maturin build --release --out dist

@@ -24,10 +24,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
-
-from hullcap.sequence import Sequence  # noqa: E402
-from hullcap.results import RECOVERED, STATUS_NAMES  # noqa: E402
-from hullcap.tracking import Tracker, TrackerOptions  # noqa: E402
+from hullcap._results import RECOVERED, STATUS_NAMES  # noqa: E402
+from hullcap._sequence import Sequence  # noqa: E402
+from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
 
 
 def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions) -> dict:

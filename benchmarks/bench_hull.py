@@ -20,11 +20,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-
-from hullcap.hull import HullReport, visual_hull
-from hullcap.sequence import Sequence
-from hullcap.silhouette import Mog2Background, StatisticalBackground
-from hullcap.synth import synthesize
+from hullcap._hull import HullReport, visual_hull
+from hullcap._sequence import Sequence
+from hullcap._silhouette import Mog2Background, StatisticalBackground
+from hullcap._synth import synthesize
 
 BOUNDS = (np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 2.2]))
 
@@ -61,10 +60,9 @@ def devset_table(names, step: int) -> None:
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import devset
-
-    from hullcap.guided import GuidedSegmenter
-    from hullcap.render import render_depth
-    from hullcap.results import load_result
+    from hullcap._guided import GuidedSegmenter
+    from hullcap._render import render_depth
+    from hullcap._results import load_result
 
     where = devset.find()
     if where is None:

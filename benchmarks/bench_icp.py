@@ -17,13 +17,12 @@ from __future__ import annotations
 import time
 
 import numpy as np
-
 from hullcap import BodyModel, FitOptions, PoseParameters, fit
+from hullcap._fitting import make_target
 from hullcap._implicit import field_mesh
+from hullcap._links import LinkModel
+from hullcap._mesh import Surface
 from hullcap.data.body import make_template  # type: ignore[attr-defined]
-from hullcap.fitting import make_target
-from hullcap.links import LinkModel
-from hullcap.mesh import Surface
 
 BOX = ((-0.95, -0.2, -0.99), (0.95, 0.15, 0.80))
 

@@ -16,10 +16,9 @@ import os
 import time
 
 import numpy as np
-
 from hullcap import BodyModel, _engine
+from hullcap._links import LinkModel
 from hullcap.data.body import make_template  # type: ignore[attr-defined]
-from hullcap.links import LinkModel
 
 
 def scipy_dijkstra_seconds(v, f, direct):

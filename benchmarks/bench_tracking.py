@@ -16,11 +16,10 @@ import tempfile
 import time
 from pathlib import Path
 
-
-from hullcap.evaluate import accuracy
-from hullcap.sequence import Sequence
-from hullcap.synth import synthesize
-from hullcap.tracking import Tracker, TrackerOptions
+from hullcap._evaluate import accuracy
+from hullcap._sequence import Sequence
+from hullcap._synth import synthesize
+from hullcap._tracking import Tracker, TrackerOptions
 
 
 def main():

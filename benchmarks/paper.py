@@ -25,12 +25,11 @@ matplotlib.use("Agg")
 import cv2  # noqa: E402
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-
 from hullcap import BodyModel, FitOptions, LinkModel, PoseParameters, Surface, fit  # noqa: E402
-from hullcap.fitting import yaw_rotation  # noqa: E402
+from hullcap._cameras import Camera, look_at  # noqa: E402
+from hullcap._fitting import yaw_rotation  # noqa: E402
 from hullcap._implicit import field_mesh, round_cone, smooth_union  # noqa: E402
-from hullcap.cameras import Camera, look_at  # noqa: E402
-from hullcap.render import shade  # noqa: E402
+from hullcap._render import shade  # noqa: E402
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 SUCCESS_MM = 20.0

@@ -3,13 +3,12 @@
 import copy
 import json
 
+import hullcap
 import numpy as np
 import pytest
-
-import hullcap
 from hullcap import BodyModel, LinkModel
-from hullcap.links import STANDARD_LINKS
-from hullcap.mesh import check_closed
+from hullcap._links import STANDARD_LINKS
+from hullcap._mesh import check_closed
 
 
 @pytest.fixture(scope="module")

@@ -8,11 +8,11 @@ and a Pose2Sim rig of four portrait phone cameras (Calib_scene.toml).
 import numpy as np
 import pytest
 from hullcap import Sequence, Tracker
-from hullcap.cameras import Cameras, look_at
-from hullcap.cli import main
+from hullcap._cameras import Cameras, look_at
+from hullcap._cli import main
+from hullcap._hull import capture_volume
+from hullcap._synth import synthesize
 from hullcap.errors import CalibrationError, HullError
-from hullcap.hull import capture_volume
-from hullcap.synth import synthesize
 
 
 def _matrix(name, m):
@@ -121,7 +121,7 @@ def test_pose2sim_portrait_phones_carve_a_hull(tmp_path, capsys):
 def test_opencv_files_and_sizes_from_the_frames(tmp_path):
     """One FileStorage file per camera (as OpenCV's calibration sample writes); the image
     size read from one frame of each camera."""
-    from hullcap.cameras import ring
+    from hullcap._cameras import ring
 
     rig = ring(4, width=320, height_px=240)
     files = []
@@ -160,7 +160,7 @@ def test_volume_given_on_the_command_line_and_an_empty_hull_names_it(tmp_path, c
 
 
 def test_rotations_rounded_by_calibration_files_are_accepted():
-    from hullcap.cameras import Camera
+    from hullcap._cameras import Camera
 
     R, t = look_at((3.0, -2.0, 1.5), (0.0, 0.0, 1.0))
     rounded = np.round(R, 5)

@@ -21,7 +21,7 @@ def test_api_tour_runs(tmp_path, monkeypatch):
 def test_readme_snippet_runs_on_the_readme_sequence(tmp_path, monkeypatch):
     """The README's Python snippet, on a sequence made as the README's `hullcap synth` makes
     it (colour frames and backgrounds, no silhouettes), shortened to a few frames."""
-    from hullcap.cli import main
+    from hullcap._cli import main
 
     text = (DOCS.parent / "README.md").read_text()
     (block,) = re.findall(r"```python\n(.*?)```", text, re.S)
@@ -34,7 +34,7 @@ def test_readme_snippet_runs_on_the_readme_sequence(tmp_path, monkeypatch):
 
 
 def test_cli_reference_is_current(monkeypatch):
-    from hullcap.cli import reference
+    from hullcap._cli import reference
 
     monkeypatch.setenv("COLUMNS", "100")
     assert (DOCS / "cli.md").read_text().rstrip() == reference().rstrip(), "run `make docs`"
@@ -65,3 +65,22 @@ def test_every_markdown_file_the_repository_names_exists():
             if not any(p.is_file() and p.is_relative_to(ROOT) for p in found):
                 missing.append(f"{f.relative_to(ROOT)}: {ref}")
     assert not missing, missing
+
+
+def test_the_public_surface_is_hullcap_errors_and_export():
+    """Every importable module but these three is private (its name starts with `_`), and
+    every name the three export exists. `hullcap.data` holds the shipped files and the
+    maintainers' scripts that rebuild them, not API."""
+    import importlib
+    import pkgutil
+
+    import hullcap
+
+    public = {"hullcap", "hullcap.errors", "hullcap.export"}
+    found = {"hullcap"} | {m.name for m in pkgutil.walk_packages(hullcap.__path__, "hullcap.")
+                           if not m.name.startswith("hullcap.data")}
+    assert {m for m in found if not any(p.startswith("_") for p in m.split("."))} == public
+    for name in public:
+        module = importlib.import_module(name)
+        missing = [n for n in module.__all__ if not hasattr(module, n)]
+        assert not missing, (name, missing)

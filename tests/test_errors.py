@@ -3,12 +3,11 @@ input is at fault, with a message naming what is at fault; engine errors arrive 
 
 import json
 
+import hullcap
 import numpy as np
 import pytest
-
-import hullcap
 from hullcap import BodyModel, Sequence, errors, visual_hull
-from hullcap.cameras import ring
+from hullcap._cameras import ring
 
 
 def test_every_error_is_a_hullcap_error_and_input_errors_are_value_errors():

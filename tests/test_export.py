@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from hullcap import BodyModel
 from hullcap.export import write_bvh
 
@@ -80,7 +79,7 @@ def test_bvh_rejects_an_unknown_convention(tmp_path):
 
 
 def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
-    from hullcap.cli import main
+    from hullcap._cli import main
 
     seq = tmp_path / "seq"
     assert main(["synth", str(seq), "--frames", "3", "--cameras", "6", "--subject", "short"]) == 0
@@ -152,8 +151,8 @@ def _matrix(translation=None, rotation=None):
 
 def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path):
     pygltflib = pytest.importorskip("pygltflib", reason="the independent glTF reader (pip install pygltflib)")
+    from hullcap.export._gltf import write_glb
     from hullcap.export._motion import Z_UP_TO_Y_UP
-    from hullcap.export.gltf import write_glb
 
     model = BodyModel.template().scaled({"torso": 1.05}, {"l_thigh": 0.9})
     rng = np.random.default_rng(11)
@@ -200,7 +199,7 @@ def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path):
 
 def test_c3d_round_trip(tmp_path):
     pytest.importorskip("ezc3d", reason="C3D support (pip install ezc3d)")
-    from hullcap.export.c3d import read_c3d, write_c3d
+    from hullcap.export._c3d import read_c3d, write_c3d
 
     model = BodyModel.template()
     rng = np.random.default_rng(3)

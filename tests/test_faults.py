@@ -11,10 +11,10 @@ import cv2
 import numpy as np
 import pytest
 from hullcap import Sequence, Tracker, TrackerOptions
-from hullcap.cameras import ring
-from hullcap.cli import main
+from hullcap._cameras import ring
+from hullcap._cli import main
+from hullcap._synth import synthesize
 from hullcap.errors import ResultsError, SequenceError
-from hullcap.synth import synthesize
 
 FRAMES = 8
 FAST = TrackerOptions(refine_joints=False)

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 from hullcap import BodyModel
-from hullcap.cameras import Cameras, ring
+from hullcap._cameras import Cameras, ring
+from hullcap._links import LinkModel
+from hullcap._results import load_result
 from hullcap.errors import HullcapError
-from hullcap.links import LinkModel
-from hullcap.results import load_result
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 

@@ -6,16 +6,15 @@ import shutil
 import cv2
 import numpy as np
 import pytest
-
 from hullcap import Camera, Cameras
+from hullcap._cameras import ring
+from hullcap._hull import HullReport, visual_hull
 from hullcap._implicit import capsule_union_mesh, field_mesh
-from hullcap.cameras import ring
-from hullcap.hull import HullReport, visual_hull
-from hullcap.mesh import check_closed
-from hullcap.render import render_depth
-from hullcap.sequence import Sequence
-from hullcap.silhouette import StatisticalBackground, background_model
-from hullcap.synth import synthesize
+from hullcap._mesh import check_closed
+from hullcap._render import render_depth
+from hullcap._sequence import Sequence
+from hullcap._silhouette import StatisticalBackground, background_model
+from hullcap._synth import synthesize
 
 
 def distorted_camera():

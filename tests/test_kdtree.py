@@ -4,10 +4,9 @@ import math
 import sys
 import threading
 
+import hullcap
 import numpy as np
 import pytest
-
-import hullcap
 from conftest import random_cloud
 
 

@@ -4,12 +4,11 @@ the per-frame status, interpolation of failed frames and smoothing."""
 import cv2
 import numpy as np
 import pytest
-
 from hullcap import BodyModel, Sequence, Tracker, TrackerOptions, smooth_joints
-from hullcap.cameras import ring
-from hullcap.motions import motion_poses
-from hullcap.results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
-from hullcap.synth import SUBJECTS, body_colours, render_sequence
+from hullcap._cameras import ring
+from hullcap._motions import motion_poses
+from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
+from hullcap._synth import SUBJECTS, body_colours, render_sequence
 
 FRAMES = 30
 JUMP = 14

@@ -1,9 +1,8 @@
 """Geodesic skin weights and the rig, through Python: the properties issue 3 asks for."""
 
+import hullcap
 import numpy as np
 import pytest
-
-import hullcap
 from hullcap import _engine
 from hullcap._implicit import capsule_union_mesh as capsule_body
 

@@ -5,11 +5,10 @@ import pickle
 
 import numpy as np
 import pytest
-
 from hullcap import BodyModel, FitOptions, PoseParameters, Surface, build_subject
-from hullcap.fitting import yaw_rotation
-from hullcap.shape import ShapeBasis
-from hullcap.subject import SubjectOptions
+from hullcap._fitting import yaw_rotation
+from hullcap._shape import ShapeBasis
+from hullcap._subject import SubjectOptions
 
 
 def test_fit_options_come_from_the_engine_and_are_checked():

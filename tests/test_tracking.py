@@ -5,13 +5,12 @@ import shutil
 import cv2
 import numpy as np
 import pytest
-
 from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, TrackerOptions, fit
-from hullcap.cameras import ring
-from hullcap.cli import main
-from hullcap.evaluate import accuracy
-from hullcap.sequence import Sequence
-from hullcap.synth import synthesize
+from hullcap._cameras import ring
+from hullcap._cli import main
+from hullcap._evaluate import accuracy
+from hullcap._sequence import Sequence
+from hullcap._synth import synthesize
 
 
 def turn(yaw):
@@ -123,7 +122,7 @@ def test_command_line_synth_then_track(tmp_path, capsys):
 @pytest.mark.parametrize("rest_mesh", ["template", "hull"])
 def test_subject_model_is_built_from_the_first_hull(short_sequence, rest_mesh):
     from hullcap import build_subject, visual_hull
-    from hullcap.subject import SubjectOptions
+    from hullcap._subject import SubjectOptions
 
     seq = Sequence(short_sequence)
     hull = visual_hull(seq.masks(0), seq.cameras)

@@ -1,29 +1,35 @@
 """hullcap: markerless human motion capture from calibrated multi-view video.
 
-The public API is what this module exports (``__all__``). The heavy lifting happens in the
-Rust engine, ``hullcap._engine``; everything exported here validates its input and raises
-an error of :mod:`hullcap.errors` (each a ``ValueError`` when the input is at fault) naming
-the file, camera, frame or argument at fault.
+The public API is what this module exports (``__all__``), with :mod:`hullcap.errors` and
+:mod:`hullcap.export`; modules whose names start with an underscore are the implementation
+and may change. The heavy lifting happens in the Rust engine, ``hullcap._engine``;
+everything exported here validates its input and raises an error of :mod:`hullcap.errors`
+(each a ``ValueError`` when the input is at fault) naming the file, camera, frame or
+argument at fault.
 """
 
 from hullcap import errors
+from hullcap._body import BodyModel, Pose
+from hullcap._cameras import Camera, Cameras, ring
 from hullcap._engine import NormalKDTree, __version__, skin_weights
-from hullcap.body import BodyModel, Pose
-from hullcap.cameras import Camera, Cameras
+from hullcap._evaluate import Accuracy, accuracy
+from hullcap._fitting import FitOptions, FitResult, PoseParameters, fit
+from hullcap._guided import GuidedOptions
+from hullcap._hull import HullReport, visual_hull
+from hullcap._links import LinkModel
+from hullcap._mesh import Surface, read_mesh, write_mesh
+from hullcap._reacquire import SearchOptions
+from hullcap._results import TrackingResult, load_result, smooth_joints
+from hullcap._sequence import Sequence
+from hullcap._shape import ShapeBasis
+from hullcap._silhouette import background_model
+from hullcap._subject import SubjectFit, SubjectOptions, build_subject
+from hullcap._synth import synthesize
+from hullcap._tracking import Tracker, TrackerOptions
 from hullcap.errors import HullcapError
-from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit
-from hullcap.guided import GuidedOptions
-from hullcap.hull import HullReport, visual_hull
-from hullcap.links import LinkModel
-from hullcap.mesh import Surface, read_mesh, write_mesh
-from hullcap.reacquire import SearchOptions
-from hullcap.results import TrackingResult, load_result, smooth_joints
-from hullcap.sequence import Sequence
-from hullcap.shape import ShapeBasis
-from hullcap.subject import SubjectFit, SubjectOptions, build_subject
-from hullcap.tracking import Tracker, TrackerOptions
 
 __all__ = [
+    "Accuracy",
     "BodyModel",
     "Camera",
     "Cameras",
@@ -46,13 +52,17 @@ __all__ = [
     "TrackerOptions",
     "TrackingResult",
     "__version__",
+    "accuracy",
+    "background_model",
     "build_subject",
     "errors",
     "fit",
     "load_result",
     "read_mesh",
+    "ring",
     "skin_weights",
     "smooth_joints",
+    "synthesize",
     "visual_hull",
     "write_mesh",
 ]

@@ -2,6 +2,6 @@
 
 import sys
 
-from hullcap.cli import main
+from hullcap._cli import main
 
 sys.exit(main())

@@ -272,7 +272,7 @@ def fit(
 class Shape:
     """A rig whose proportions are parameters: per parameter, the ``(link, (3, 3))``
     stretches, ``(link, (3,))`` shifts and ``(link, (3,))`` centre moves one unit of it
-    makes (see ``hullcap.shape``)."""
+    makes (see ``hullcap._shape``)."""
 
     def __init__(
         self,

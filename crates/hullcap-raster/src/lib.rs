@@ -1,6 +1,6 @@
 //! Z-buffered rasterisation of triangle meshes already projected to pixels.
 //!
-//! The renderer of synthetic sequences (`hullcap.synth`) projects a mesh into each camera
+//! The renderer of synthetic sequences (`hullcap._synth`) projects a mesh into each camera
 //! (with its distortion) and hands the engine pixel coordinates and camera depths; the
 //! engine returns, per pixel, the depth of the nearest surface and the triangle seen
 //! there. Silhouettes, shading and pictures are made from those in Python.

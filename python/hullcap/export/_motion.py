@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hullcap.cameras import Y_UP_TO_Z_UP
+from hullcap._cameras import Y_UP_TO_Z_UP
 from hullcap.errors import OptionsError, ResultsError
 
 Z_UP_TO_Y_UP = Y_UP_TO_Z_UP.T

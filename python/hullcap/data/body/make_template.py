@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._implicit import ellipsoid, field_mesh, round_cone, smooth_union
-from hullcap.mesh import check_closed
+from hullcap._mesh import check_closed
 
 VOXEL = 0.016
 BLEND = 0.035  # fillet width where parts meet (m)

@@ -7,8 +7,8 @@ import cv2
 import numpy as np
 
 from hullcap import BodyModel
-from hullcap.cameras import Camera, look_at
-from hullcap.render import shade
+from hullcap._cameras import Camera, look_at
+from hullcap._render import shade
 
 
 def main(out="docs/template.png"):

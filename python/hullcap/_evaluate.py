@@ -32,7 +32,7 @@ class Accuracy:
 
 
 def accuracy(result, sequence_path) -> Accuracy:
-    """Compare a :class:`~hullcap.tracking.TrackingResult` (or a run folder's
+    """Compare a :class:`~hullcap._tracking.TrackingResult` (or a run folder's
     ``pose.npz`` joints) with ``truth/`` of the sequence it tracked."""
     truth_dir = Path(sequence_path) / "truth"
     with np.load(truth_dir / "joints.npz") as z:

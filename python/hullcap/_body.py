@@ -17,10 +17,10 @@ import numpy as np
 
 from hullcap._engine import Rig, skin_weights
 from hullcap._files import atomic_write
+from hullcap._links import DATA, LinkModel
+from hullcap._mesh import vertex_normals
+from hullcap._shape import ShapeBasis
 from hullcap.errors import ModelError
-from hullcap.links import DATA, LinkModel
-from hullcap.mesh import vertex_normals
-from hullcap.shape import ShapeBasis
 
 __all__ = ["BodyModel", "Pose", "ROOT_DOF_NAMES"]
 
@@ -110,7 +110,7 @@ class BodyModel:
         return self.shaped(*ShapeBasis.scales(self._links, lengths, girths))
 
     def shaped(self, basis: ShapeBasis, shape) -> BodyModel:
-        """The body at shape vector `shape` of `basis` (:mod:`hullcap.shape`): joint
+        """The body at shape vector `shape` of `basis` (:mod:`hullcap._shape`): joint
         centres, link segments, sites and vertices moved by the engine's linear shape
         model. The skin weights are kept (call :meth:`reskinned` to recompute them)."""
         shape = _array(shape, "shape", np.float64, (len(basis),)).tolist()

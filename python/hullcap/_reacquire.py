@@ -21,10 +21,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from hullcap import _engine
+from hullcap._body import BodyModel
 from hullcap._engine import FitOptions
-from hullcap.body import BodyModel
+from hullcap._fitting import FitResult, PoseParameters, fit, quality, yaw_rotation
 from hullcap.errors import OptionsError
-from hullcap.fitting import FitResult, PoseParameters, fit, quality, yaw_rotation
 
 __all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS", "chain_links", "chain_quality"]
 

@@ -5,7 +5,7 @@ sequence folder (docs/formats.md): colour frames of the subject over a textured 
 checkered floor, a panelled backdrop) with a soft floor shadow and sensor noise, the empty
 scene as background images, and ``truth/`` with the exact silhouettes and whatever ground
 truth it is given. :func:`synthesize` drives the template body through a scripted motion
-(:mod:`hullcap.motions`) with chosen proportions and renders it.
+(:mod:`hullcap._motions`) with chosen proportions and renders it.
 """
 
 from __future__ import annotations
@@ -17,14 +17,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from hullcap._body import BodyModel
+from hullcap._cameras import Cameras, ring
 from hullcap._files import atomic_write
-from hullcap.body import BodyModel
-from hullcap.cameras import Cameras, ring
+from hullcap._mesh import face_normals
+from hullcap._motions import motion_poses
+from hullcap._progress import progress
+from hullcap._render import render_depth
 from hullcap.errors import OptionsError, SequenceError
-from hullcap.mesh import face_normals
-from hullcap.motions import motion_poses
-from hullcap.progress import progress
-from hullcap.render import render_depth
 
 __all__ = ["render_sequence", "synthesize", "SUBJECTS"]
 
@@ -178,8 +178,8 @@ def synthesize(out, motion: str = "demo", cameras: int | Cameras = 8, subject: s
 
     Args:
         out: the sequence folder to write.
-        motion: a name from :data:`hullcap.motions.MOTIONS`.
-        cameras: a calibration, or the number of cameras on a ring (:func:`~hullcap.cameras.ring`).
+        motion: a name from :data:`hullcap._motions.MOTIONS`.
+        cameras: a calibration, or the number of cameras on a ring (:func:`~hullcap._cameras.ring`).
         subject: a name from :data:`SUBJECTS` (proportions unlike the template's own).
         frames: keep only the first this many frames (default: the whole motion).
 

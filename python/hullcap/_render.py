@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from hullcap._cameras import Camera
 from hullcap._engine import rasterize
-from hullcap.cameras import Camera
-from hullcap.mesh import face_normals
+from hullcap._mesh import face_normals
 
 __all__ = ["render_depth", "shade"]
 

@@ -8,10 +8,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hullcap import _engine
+from hullcap._body import BodyModel
 from hullcap._engine import FitOptions
-from hullcap.body import BodyModel
+from hullcap._mesh import Surface
 from hullcap.errors import FitError
-from hullcap.mesh import Surface
 
 __all__ = ["FitOptions", "FitResult", "PoseParameters", "fit", "make_target", "quality", "yaw_rotation"]
 
@@ -103,7 +103,7 @@ def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions |
 
     Args:
         model: the body model.
-        target: a :class:`~hullcap.mesh.Surface` (its vertices and outward normals) or a
+        target: a :class:`~hullcap._mesh.Surface` (its vertices and outward normals) or a
             target made by :func:`make_target`.
         initial: the starting pose (e.g. the previous frame's, or a prediction).
         options: a :class:`FitOptions` (residual, solver, gates, robust scale, two-sided

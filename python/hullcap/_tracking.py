@@ -12,13 +12,13 @@ model) → visual hull → a fit from the pose predicted by constant velocity, t
 last good pose → a judgement of the fit: its quality (how much of the hull it explains
 both ways, ½(inlier fraction + coverage)), and each limb's, against the median of the
 recent accepted frames. A fit below them starts a search from the hull itself
-(:mod:`hullcap.reacquire`), which says what this frame's hull can give: the tracked fit
+(:mod:`hullcap._reacquire`), which says what this frame's hull can give: the tracked fit
 stands when the search finds nothing better (``good``), the search's fit when it does
 (``recovered``), and the frame is ``failed`` when nothing explains its hull to
 ``min_quality``.
 
 A broken image of one camera leaves that view out of that frame (the hull and fit use the
-others) and is recorded in ``problems.json`` (:mod:`hullcap.problems`); only a frame with
+others) and is recorded in ``problems.json`` (:mod:`hullcap._problems`); only a frame with
 too few usable views is lost.
 
 Outputs (docs/formats.md): ``joints.csv``, ``pose.npz``, ``model/``, ``motion.bvh``,
@@ -40,20 +40,20 @@ from pathlib import Path
 
 import numpy as np
 
+from hullcap._body import BodyModel
 from hullcap._files import atomic_write
-from hullcap.body import BodyModel
+from hullcap._fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
+from hullcap._guided import GuidedOptions, GuidedSegmenter, dilated
+from hullcap._hull import HullReport, capture_volume, check_bounds, visual_hull
+from hullcap._problems import ProblemLog
+from hullcap._progress import progress
+from hullcap._reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
+from hullcap._render import render_depth
+from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
+from hullcap._sequence import Sequence
+from hullcap._silhouette import background_model
+from hullcap._subject import SubjectOptions, build_subject, place_model
 from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
-from hullcap.fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
-from hullcap.guided import GuidedOptions, GuidedSegmenter, dilated
-from hullcap.hull import HullReport, capture_volume, check_bounds, visual_hull
-from hullcap.problems import ProblemLog
-from hullcap.progress import progress
-from hullcap.reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
-from hullcap.render import render_depth
-from hullcap.results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
-from hullcap.sequence import Sequence
-from hullcap.silhouette import background_model
-from hullcap.subject import SubjectOptions, build_subject, place_model
 
 __all__ = ["Tracker", "TrackerOptions"]
 
@@ -72,7 +72,7 @@ class TrackerOptions:
         use_silhouettes: use the sequence's silhouettes when it has them.
         guided: with statistical background subtraction, guide each frame's silhouettes by
             the model at its predicted pose and by the subject's colours
-            (:mod:`hullcap.guided`); the statistical test alone otherwise.
+            (:mod:`hullcap._guided`); the statistical test alone otherwise.
         guidance: the guided silhouettes' options.
         hull_tolerance: views that may leave a voxel out and be overruled by the others
             (:func:`hullcap.visual_hull`): within the predicted model's silhouettes, dilated
@@ -93,7 +93,7 @@ class TrackerOptions:
         quality_margin: a fit passes without a search when its quality is at most this far
             below the reference. Quality is a fraction of points (0…1); in good tracking it varies by
             a few hundredths from frame to frame.
-        chain_margin: and when each limb chain's quality (:func:`hullcap.reacquire.
+        chain_margin: and when each limb chain's quality (:func:`hullcap._reacquire.
             chain_quality`) is at most this far below that chain's own reference. A whole
             body's quality barely moves when one arm is lost (an arm is a few per cent of
             the body); the arm's own falls from 0.7–0.95 to 0.2–0.55.
@@ -166,7 +166,7 @@ class Tracker:
         self._broken: set = set()  # (frame, camera) of views already left out
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
-        """Frames and views left out, and why (:mod:`hullcap.problems`)."""
+        """Frames and views left out, and why (:mod:`hullcap._problems`)."""
 
     # -- one frame's input -------------------------------------------------------------
 
@@ -299,7 +299,7 @@ class Tracker:
             interpolate: bool = False, smooth_hz: float | None = None, overlays: bool = False) -> TrackingResult:
         """Track the sequence into folder `out` (see the module documentation): the results,
         ``report.png``, ``problems.json`` and, with `overlays`, ``overlay/<cam>.mp4``.
-        `interpolate` and `smooth_hz` go to :func:`hullcap.results.write_outputs`. The
+        `interpolate` and `smooth_hz` go to :func:`hullcap._results.write_outputs`. The
         checkpoint stays until every output is written, so an interruption at any point
         resumes without tracking again what was tracked."""
         from hullcap.export import write_overlays, write_report

@@ -19,12 +19,12 @@ from pathlib import Path
 
 import numpy as np
 
+from hullcap._body import BodyModel
 from hullcap._files import atomic_write
-from hullcap.body import BodyModel
+from hullcap._fitting import FitResult
 from hullcap.errors import OptionsError, ResultsError
-from hullcap.export.bvh import write_bvh
-from hullcap.export.gltf import write_glb
-from hullcap.fitting import FitResult
+from hullcap.export._bvh import write_bvh
+from hullcap.export._gltf import write_glb
 
 __all__ = ["GOOD", "RECOVERED", "FAILED", "INTERPOLATED", "STATUS_NAMES", "TrackingResult", "write_outputs",
            "write_joints_csv", "load_result", "smooth_joints"]
@@ -34,7 +34,7 @@ STATUS_NAMES = ("good", "recovered", "failed", "interpolated")
 """What ``status`` values mean (``pose.npz`` and the ``status`` column of ``joints.csv``)."""
 
 STATS = ("energy", "inlier_fraction", "mean_residual", "coverage", "mean_reverse_residual")
-"""Per-frame fit statistics kept from each frame's :class:`~hullcap.fitting.FitResult`."""
+"""Per-frame fit statistics kept from each frame's :class:`~hullcap._fitting.FitResult`."""
 
 
 @dataclass
@@ -48,7 +48,7 @@ class TrackingResult:
         joints: (F, J, 3) joint positions, world metres.
         status: (F,) uint8, see :data:`STATUS_NAMES`.
         energy, inlier_fraction, mean_residual, coverage, mean_reverse_residual: (F,) the
-            fit statistics (:class:`~hullcap.fitting.FitResult`).
+            fit statistics (:class:`~hullcap._fitting.FitResult`).
         iterations: (F,) ICP iterations spent on the frame, searches included.
         link_counts: (F, L, 4) each frame's per-link counts (``FitResult.link_counts``).
         seconds: seconds spent per stage of tracking the sequence (silhouettes, hull, fit), and

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from hullcap.silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered, signed_distance
+from hullcap._silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered, signed_distance
 
 __all__ = ["GuidedOptions", "ColourModel", "GuidedSegmenter", "dilated"]
 

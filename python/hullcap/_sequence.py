@@ -17,8 +17,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from hullcap._cameras import Cameras
 from hullcap._files import read_document
-from hullcap.cameras import Cameras
 from hullcap.errors import SequenceError, ViewError
 
 __all__ = ["Sequence"]

@@ -14,12 +14,12 @@ __all__ = ["main"]
 
 
 def _track(args) -> int:
-    from hullcap.body import BodyModel
-    from hullcap.hull import axes_meeting_point, format_bounds
-    from hullcap.results import RECOVERED
-    from hullcap.rig import MIN_SURROUND, surround
-    from hullcap.sequence import Sequence
-    from hullcap.tracking import Tracker, TrackerOptions
+    from hullcap._body import BodyModel
+    from hullcap._hull import axes_meeting_point, format_bounds
+    from hullcap._results import RECOVERED
+    from hullcap._rig import MIN_SURROUND, surround
+    from hullcap._sequence import Sequence
+    from hullcap._tracking import Tracker, TrackerOptions
 
     seq = Sequence(args.sequence)
     model = BodyModel.load(args.model) if args.model else None
@@ -46,7 +46,7 @@ def _track(args) -> int:
 
 
 def _synth(args) -> int:
-    from hullcap.synth import synthesize
+    from hullcap._synth import synthesize
 
     out = synthesize(args.out, args.motion, args.cameras, args.subject, fps=args.fps, noise=args.noise,
                      seed=args.seed, silhouettes=args.silhouettes, frames=args.frames)
@@ -55,10 +55,10 @@ def _synth(args) -> int:
 
 
 def _demo(args) -> int:
-    from hullcap.evaluate import accuracy
-    from hullcap.sequence import Sequence
-    from hullcap.synth import synthesize
-    from hullcap.tracking import Tracker, TrackerOptions
+    from hullcap._evaluate import accuracy
+    from hullcap._sequence import Sequence
+    from hullcap._synth import synthesize
+    from hullcap._tracking import Tracker, TrackerOptions
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(args.out) if args.out else Path(tmp)
@@ -90,8 +90,8 @@ def _demo(args) -> int:
 
 
 def _export(args) -> int:
+    from hullcap._results import load_result, smooth_joints, write_joints_csv
     from hullcap.export import write_bvh, write_c3d, write_glb, write_trc
-    from hullcap.results import load_result, smooth_joints, write_joints_csv
 
     result = load_result(args.out)
     if args.interpolate:
@@ -119,8 +119,8 @@ def _export(args) -> int:
 
 
 def _calib_import(args) -> int:
-    from hullcap.cameras import parse_size
-    from hullcap.rig import describe, image_sizes, import_calibration
+    from hullcap._cameras import parse_size
+    from hullcap._rig import describe, image_sizes, import_calibration
 
     size = None
     if args.size:
@@ -135,8 +135,8 @@ def _calib_import(args) -> int:
 
 
 def _calib_show(args) -> int:
-    from hullcap.cameras import Cameras
-    from hullcap.rig import describe, draw_top_view
+    from hullcap._cameras import Cameras
+    from hullcap._rig import describe, draw_top_view
 
     cameras = Cameras.load(args.cameras)
     print(describe(cameras))
@@ -168,8 +168,8 @@ def _output_options(p) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     from hullcap import __version__
-    from hullcap.motions import MOTIONS
-    from hullcap.synth import SUBJECTS
+    from hullcap._motions import MOTIONS
+    from hullcap._synth import SUBJECTS
 
     ap = argparse.ArgumentParser(prog="hullcap", description="Markerless motion capture from calibrated multi-view video.")
     ap.add_argument("--version", action="version", version=f"hullcap {__version__}")
@@ -268,7 +268,7 @@ def reference() -> str:
     import io
 
     parser = build_parser()
-    out = ["# Command-line reference", "", "Generated from the parser by `hullcap.cli.reference()` "
+    out = ["# Command-line reference", "", "Generated from the parser by `hullcap._cli.reference()` "
            "(`make docs`); `tests/test_docs.py` checks it is current.", ""]
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     for name, p in sub.choices.items():

@@ -10,9 +10,9 @@ import cv2
 import numpy as np
 
 from hullcap._files import publish
+from hullcap._progress import progress
+from hullcap._render import render_depth
 from hullcap.errors import ViewError
-from hullcap.progress import progress
-from hullcap.render import render_depth
 
 __all__ = ["write_overlays", "write_report", "BONES"]
 

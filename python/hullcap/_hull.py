@@ -21,10 +21,10 @@ import numpy as np
 from scipy import ndimage
 from skimage.measure import marching_cubes
 
-from hullcap.cameras import Cameras
+from hullcap._cameras import Cameras
+from hullcap._mesh import Surface
+from hullcap._silhouette import signed_distance
 from hullcap.errors import CalibrationError, HullError
-from hullcap.mesh import Surface
-from hullcap.silhouette import signed_distance
 
 __all__ = ["visual_hull", "capture_volume", "axes_meeting_point", "check_bounds", "format_bounds", "HullReport"]
 
@@ -93,7 +93,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
             everywhere, and the hull grows by what one view alone carved off.
 
     Returns:
-        A :class:`~hullcap.mesh.Surface`: vertices (metres), faces, unit outward normals.
+        A :class:`~hullcap._mesh.Surface`: vertices (metres), faces, unit outward normals.
 
     Raises:
         ValueError: a mask of the wrong shape or count, every mask empty, or a hull that

@@ -1,10 +1,10 @@
 """A camera rig at a glance, and calibrations imported from other tools (``hullcap calib``).
 
 :func:`describe` lists each camera's centre, viewing direction, image size and focal
-length and the capture volume every camera sees (:func:`hullcap.hull.capture_volume`);
+length and the capture volume every camera sees (:func:`hullcap._hull.capture_volume`);
 :func:`draw_top_view` draws the rig from above with that volume, so that a rig aimed away
 from where the person stands shows at once. :func:`import_calibration` reads EasyMocap,
-Pose2Sim or plain OpenCV files into :class:`~hullcap.cameras.Cameras`, taking image sizes
+Pose2Sim or plain OpenCV files into :class:`~hullcap._cameras.Cameras`, taking image sizes
 from the files, from the caller, or from one frame of each camera's images or video.
 """
 
@@ -15,10 +15,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from hullcap._cameras import Cameras
 from hullcap._files import atomic_write
-from hullcap.cameras import Cameras
+from hullcap._hull import axes_meeting_point, capture_volume, format_bounds
 from hullcap.errors import CalibrationError, SequenceError
-from hullcap.hull import axes_meeting_point, capture_volume, format_bounds
 
 __all__ = ["describe", "draw_top_view", "import_calibration", "image_sizes", "surround", "FORMATS", "MIN_SURROUND"]
 

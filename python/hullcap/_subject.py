@@ -3,7 +3,7 @@ subject's model").
 
 The template is placed in the first hull by a small global search (its centre, headings
 all round, the best few refined), then its proportions — a shape vector of
-:class:`~hullcap.shape.ShapeBasis`: an overall scale, a length and a girth per segment,
+:class:`~hullcap._shape.ShapeBasis`: an overall scale, a length and a girth per segment,
 the hips' lateral place — and the pose of every calibration frame are fitted together
 as the minimum of the same two-sided robust energy that tracking uses, plus a Gaussian
 prior that keeps proportions no frame shows at the template's. The subject's rest mesh is
@@ -18,12 +18,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hullcap import _engine
+from hullcap._body import BodyModel
 from hullcap._engine import FitOptions, NormalKDTree
-from hullcap.body import BodyModel
+from hullcap._fitting import FitResult, PoseParameters, fit, make_target, quality
+from hullcap._mesh import Surface
+from hullcap._shape import ShapeBasis, ShapeParameter
 from hullcap.errors import FitError, ModelError, OptionsError
-from hullcap.fitting import FitResult, PoseParameters, fit, make_target, quality
-from hullcap.mesh import Surface
-from hullcap.shape import ShapeBasis, ShapeParameter
 
 __all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model"]
 
@@ -128,7 +128,7 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     """Fit the template's proportions and poses to the hulls of calibration frames.
 
     Args:
-        hulls: a :class:`~hullcap.mesh.Surface`, or several (frames of the calibration
+        hulls: a :class:`~hullcap._mesh.Surface`, or several (frames of the calibration
             pose and of the first motion; the first is where the model is placed).
         poses: a starting pose per hull (e.g. from tracking with an earlier model);
             default: the placement found in the first hull, for every hull, and every
