@@ -8,7 +8,7 @@ from hullcap import BodyModel, Sequence, Tracker, TrackerOptions, smooth_joints
 from hullcap._cameras import ring
 from hullcap._motions import motion_poses
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
-from hullcap._synth import SUBJECTS, body_colours, render_sequence
+from hullcap._synth import SUBJECTS, render_motion
 
 FRAMES = 30
 JUMP = 14
@@ -22,18 +22,9 @@ def render(out, shift_after=None, shift=(0.0, 0.0, 0.0)):
     theta, rot, trans = theta[:FRAMES], rot[:FRAMES], trans[:FRAMES].copy()
     if shift_after is not None:
         trans[shift_after:] += shift
-    joints = []
-
-    def meshes():
-        for th, r, t in zip(theta, rot, trans):
-            pose = model.pose(th, r, t)
-            joints.append(pose.joints)
-            yield pose.vertices
-
     cams = ring(6, radius=4.2, width=400, height_px=300, fov_deg=62)
-    seq = render_sequence(out, cams, meshes(), model.faces, FRAMES, body_colours(model), silhouettes=True,
-                          show_progress=False)
-    return seq, np.array(joints), model
+    seq = render_motion(out, cams, model, theta, rot, trans, silhouettes=True, show_progress=False)
+    return seq, np.load(seq / "truth" / "joints.npz")["positions"], model
 
 
 def errors(result, truth):

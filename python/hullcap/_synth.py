@@ -26,7 +26,7 @@ from hullcap._progress import progress
 from hullcap._render import render_depth
 from hullcap.errors import OptionsError, SequenceError
 
-__all__ = ["render_sequence", "synthesize", "SUBJECTS"]
+__all__ = ["render_sequence", "render_motion", "synthesize", "SUBJECTS"]
 
 SUBJECTS = {
     "template": ({}, {}),
@@ -196,24 +196,34 @@ def synthesize(out, motion: str = "demo", cameras: int | Cameras = 8, subject: s
     theta, rot, trans = motion_poses(motion, model.dof_names, fps, model.rest_root_height)
     if frames is not None:
         theta, rot, trans = theta[:frames], rot[:frames], trans[:frames]
+    seq = render_motion(out, cameras, model, theta, rot, trans, fps, noise, seed, silhouettes, show_progress)
+    (seq / "truth" / "subject.json").write_text(json.dumps({"subject": subject, "motion": motion,
+                                                            "lengths": lengths, "girths": girths}))
+    return seq
+
+
+def render_motion(out, cameras: Cameras, model: BodyModel, theta, root_rotation, root_translation,
+                  fps: float = 30.0, noise: float = 2.0, seed: int = 0, silhouettes: bool = False,
+                  show_progress: bool = True) -> Path:
+    """Render `model` through the poses (theta (F, D), root_rotation (F, 3, 3),
+    root_translation (F, 3)) into the sequence folder `out`, with ``truth/`` (the true
+    joints in ``joints.npz``, the pose and the model); returns the folder."""
     joints = []
 
     def meshes():
-        for th, r, t in zip(theta, rot, trans):
+        for th, r, t in zip(theta, root_rotation, root_translation):
             pose = model.pose(th, r, t)
             joints.append(pose.joints)
             yield pose.vertices
 
     seq = render_sequence(out, cameras, meshes(), model.faces, len(theta), body_colours(model), fps,
                           noise, seed, silhouettes, show_progress=show_progress)
-    truth = {"root_translation": trans, "root_rotation": rot, "theta": theta,
+    truth = {"root_translation": root_translation, "root_rotation": root_rotation, "theta": theta,
              "dof_names": np.array(model.dof_names), "joint_names": np.array(model.joint_names),
              "failed": np.zeros(len(theta), bool)}
     np.savez(seq / "truth" / "pose.npz", **truth)
     np.savez(seq / "truth" / "joints.npz", names=np.array(model.joint_names), positions=np.array(joints))
     model.save(seq / "truth" / "model")
-    (seq / "truth" / "subject.json").write_text(json.dumps({"subject": subject, "motion": motion,
-                                                            "lengths": lengths, "girths": girths}))
     return seq
 
 
