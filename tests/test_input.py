@@ -169,6 +169,33 @@ def test_hull_of_a_sphere_is_tight_where_the_views_constrain_it():
     assert np.mean(np.einsum("ij,ij->i", hull.normals, d / r[:, None]) > 0.5) > 0.99
 
 
+@pytest.mark.parametrize("tolerance, with_prior", [(0, False), (1, False), (1, True)])
+def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tolerance, with_prior):
+    """Against brute force: every voxel of the grid tested in every view, by the sign of
+    the same lookups. One view misses a band of the body, to exercise the tolerance."""
+    from hullcap._hull import HullReport, _carve, _View
+
+    cams = ring(6, radius=3.0, width=320, height_px=240)
+    v, f = capsule_union_mesh([((0, 0, 0.7), (0, 0, 1.3), 0.2), ((0, 0, 1.0), (0.5, 0.1, 1.2), 0.08)], 0.005)
+    masks = _masks(cams, np.array(v), f)
+    priors = [m > 0 for m in masks] if with_prior else [None] * len(cams)
+    if tolerance:
+        masks[0][120:130] = 0
+    views = [_View(c, m, p) for c, m, p in zip(cams, masks, priors)]
+    lo, hi, h = np.array([-0.8, -0.8, 0.2]), np.array([0.8, 0.8, 1.8]), 0.02
+    origin, occupancy = _carve(views, lo, hi, h, HullReport(), 3, tolerance, with_prior)
+    n = np.ceil((hi - lo) / h).astype(int)
+    cells = np.stack(np.meshgrid(*map(np.arange, n), indexing="ij"), -1).reshape(-1, 3)
+    missed, seen, in_priors = np.zeros(len(cells), int), np.zeros(len(cells), int), np.ones(len(cells), bool)
+    for view in views:
+        d, p, _ = view.lookup(lo + (cells + 0.5) * h)
+        missed, seen, in_priors = missed + (d < 0), seen + np.isfinite(d), in_priors & (p >= 0)
+    brute = cells[((missed == 0) | ((missed <= tolerance) & in_priors)) & (seen >= 3)]
+    got = np.argwhere(occupancy) + np.rint((origin - lo) / h).astype(int)
+    assert len(brute) > 10_000
+    assert sorted(map(tuple, got)) == sorted(map(tuple, brute))
+
+
 def test_hull_of_a_box_contains_it_and_hugs_its_faces():
     cams = ring(8, radius=3.0)
     lo, hi, voxel = np.array([-0.2, -0.15, 0.6]), np.array([0.25, 0.15, 1.5]), 0.01

@@ -17,6 +17,7 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 from scipy import ndimage
 from skimage.measure import marching_cubes
@@ -39,14 +40,39 @@ class HullReport:
     mesh_seconds: float = 0.0
 
 
+def _boxed_signed_distance(mask) -> np.ndarray:
+    """A mask's signed distance to its edge (pixels, positive inside), with the distance
+    transforms run only in the mask's bounding box grown by a pixel all round: exact there
+    (the mask and the ring of background around it lie inside). Beyond the box it is
+    minus the Chebyshev distance to the box, which never exceeds the distance to the mask:
+    carving then prunes a little less far from the person, and decides by the sign alone
+    at the finest level, where the sign is exact. A person fills a tenth of a frame, so
+    this is several times cheaper than the whole image's transforms."""
+    inside = (np.asarray(mask) > 0).astype(np.uint8)
+    H, W = inside.shape
+    x, y, w, h = cv2.boundingRect(inside)
+    if w == 0:
+        return np.full((H, W), -_FAR, np.float32)
+    x0, y0, x1, y1 = max(0, x - 1), max(0, y - 1), min(W, x + w + 1), min(H, y + h + 1)
+    rows, cols = np.arange(H), np.arange(W)
+    out = np.maximum.outer(np.maximum(np.maximum(y0 - rows, rows - (y1 - 1)), 0),
+                           np.maximum(np.maximum(x0 - cols, cols - (x1 - 1)), 0))
+    signed = np.negative(out, dtype=np.float32)
+    signed[y0:y1, x0:x1] = signed_distance(inside[y0:y1, x0:x1])
+    return signed
+
+
+_FAR = 1e9
+
+
 class _View:
     """One camera's mask as the carving needs it: signed distance to the silhouette edge
     (and to the prior's, when one is given)."""
 
     def __init__(self, camera, mask, prior=None):
         self.camera = camera
-        self.signed = signed_distance(mask)
-        self.prior = None if prior is None else signed_distance(prior)
+        self.signed = _boxed_signed_distance(mask)
+        self.prior = None if prior is None else _boxed_signed_distance(prior)
         self.focal = float(max(camera.K[0, 0], camera.K[1, 1]))
 
     def lookup(self, points):
