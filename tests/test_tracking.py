@@ -76,6 +76,26 @@ def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, 
     assert accuracy(result, seq_dir).mean_mm < 30
 
 
+def test_reading_ahead_on_a_second_thread_changes_nothing(short_sequence, tmp_path):
+    """From colour frames (guided silhouettes), one image broken: the run that decodes and
+    subtracts the next frames on a second thread gives the same joints and problems as
+    the run that reads each frame when it is tracked."""
+    seq_dir = tmp_path / "seq"
+    shutil.copytree(short_sequence, seq_dir)
+    (seq_dir / "frames" / "cam1" / "000003.png").write_bytes(b"not a png")
+    seq = Sequence(seq_dir)
+    model = BodyModel.load(seq_dir / "truth" / "model")
+    runs = []
+    for read_ahead in (0, 2):
+        tracker = Tracker(seq, model, TrackerOptions(use_silhouettes=False, read_ahead=read_ahead, refine_joints=False))
+        result = tracker.run(tmp_path / f"out{read_ahead}", show_progress=False, frames=8)
+        runs.append((result, [str(p) for p in tracker.problems]))
+    (serial, serial_problems), (ahead, ahead_problems) = runs
+    assert np.array_equal(serial.joints, ahead.joints) and np.array_equal(serial.status, ahead.status)
+    assert serial_problems == ahead_problems and any("frame 3: camera 'cam1'" in p for p in ahead_problems)
+    assert ahead.seconds["read ahead"] > 0 and "read ahead" not in serial.seconds
+
+
 def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, monkeypatch):
     seq = Sequence(short_sequence)
     out = tmp_path / "out"

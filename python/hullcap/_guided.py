@@ -133,11 +133,13 @@ class GuidedSegmenter:
         d = signed_distance(model_silhouette)
         self.colours.learn(image, d > margin, (d < -margin) & (d > -4 * margin))
 
-    def mask(self, image: np.ndarray, prior: np.ndarray | None) -> np.ndarray:
+    def mask(self, image: np.ndarray, prior: np.ndarray | None, evidence: np.ndarray | None = None) -> np.ndarray:
         """(H, W) uint8 silhouette, 255 = subject, given the predicted model's (H, W) bool
-        silhouette `prior` (``None``: the statistical test alone)."""
+        silhouette `prior` (``None``: the statistical test alone); `evidence`: the
+        background's ``evidence(image)`` when it was computed already."""
         o = self.options
-        evidence = self.background.evidence(image)
+        if evidence is None:
+            evidence = self.background.evidence(image)
         box = None if prior is None else _box(prior)
         distortion = evidence + self.background.thresholds.chromaticity
         if box is None:

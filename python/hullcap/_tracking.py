@@ -34,12 +34,14 @@ import time
 import warnings
 import zipfile
 from collections import defaultdict, deque
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from itertools import islice
 from pathlib import Path
 
 import numpy as np
 
+from hullcap._ahead import ReadAhead
 from hullcap._body import BodyModel
 from hullcap._files import atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, fit, make_target, quality
@@ -111,6 +113,9 @@ class TrackerOptions:
             something of, agree to less than 0.05.
         reacquire: search from the hull when a fit is not good (else the frame fails).
         search: the search's options.
+        read_ahead: frames decoded and put through the background test on a second
+            thread while the engine fits the frame before (:mod:`hullcap._ahead`); 0
+            reads each frame when it is tracked. The results are the same either way.
     """
 
     voxel_size: float = 0.01
@@ -132,6 +137,7 @@ class TrackerOptions:
     min_subject_agreement: float = 0.5
     reacquire: bool = True
     search: SearchOptions = field(default_factory=SearchOptions)
+    read_ahead: int = 2
     seed: int = 0
 
     def __post_init__(self):
@@ -139,6 +145,8 @@ class TrackerOptions:
             raise OptionsError(f"background must be 'statistical' or 'mog2', got {self.background!r}")
         if not self.voxel_size > 0:
             raise OptionsError(f"voxel_size must be positive, got {self.voxel_size}")
+        if self.read_ahead < 0:
+            raise OptionsError(f"read_ahead must be >= 0, got {self.read_ahead}")
         if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
             raise OptionsError("calibration_frames must be >= 2, calibration_seconds > 0, quality_window >= 1")
 
@@ -164,6 +172,7 @@ class Tracker:
         self._backgrounds = None
         self._guided = None
         self._broken: set = set()  # (frame, camera) of views already left out
+        self._ahead: ReadAhead | None = None
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
         """Frames and views left out, and why (:mod:`hullcap._problems`)."""
@@ -179,29 +188,41 @@ class Tracker:
         predicted model's silhouettes `priors` (one bool mask per view) when the options
         say so."""
         t0 = time.perf_counter()
-        seq = self.sequence
-        if self._given_silhouettes:
-            masks = []
-            for cam in seq.cameras:
-                try:
-                    masks.append(seq.mask(frame, cam.name))
-                except ViewError as e:  # a missing or broken mask: leave that view out
-                    self._view_left_out(frame, cam, e)
-                    masks.append(np.zeros((cam.height, cam.width), np.uint8))
-        else:
-            images = self._images(frame)
-            segmenters = self._segmenters()
-            priors = priors or [None] * len(images)
-            masks = []
-            for i, (cam, img) in enumerate(zip(seq.cameras, images)):
-                if img is None:
-                    masks.append(np.zeros((cam.height, cam.width), np.uint8))
-                elif segmenters is None:
-                    masks.append(self._backgrounds[i].mask(img))
-                else:
-                    masks.append(segmenters[i].mask(img, priors[i]))
+        inputs = self._ahead.take(frame) if self._ahead is not None else self._inputs(frame)
+        masks = []
+        for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
+            if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
+                self._view_left_out(frame, cam, view)
+                masks.append(np.zeros((cam.height, cam.width), np.uint8))
+            elif view.mask is not None:
+                masks.append(view.mask)
+            else:
+                masks.append(self._guided[i].mask(view.image, None if priors is None else priors[i], view.evidence))
         self.seconds["silhouettes"] += time.perf_counter() - t0
         return masks
+
+    def _inputs(self, frame: int) -> list[_Input | ViewError]:
+        """What each camera gives for `frame` before any prediction: the given mask, the
+        mask of the unguided background test, or the image with the guided segmenter's
+        background evidence; or the ViewError that leaves it out. Runs on the read-ahead
+        thread: it may not touch the problem log."""
+        seq = self.sequence
+        segmenters = None if self._given_silhouettes else self._segmenters()
+        inputs: list[_Input | ViewError] = []
+        for i, cam in enumerate(seq.cameras):
+            try:
+                if self._given_silhouettes:
+                    inputs.append(_Input(mask=seq.mask(frame, cam.name)))
+                    continue
+                image = seq.image(frame, cam.name)
+            except ViewError as e:
+                inputs.append(e)
+                continue
+            if segmenters is None:
+                inputs.append(_Input(mask=self._backgrounds[i].mask(image)))
+            else:
+                inputs.append(_Input(image=image, evidence=segmenters[i].background.evidence(image)))
+        return inputs
 
     def _images(self, frame: int) -> list[np.ndarray | None]:
         """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""
@@ -324,10 +345,11 @@ class Tracker:
             state.remember(result, start)
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
-        for frame in bar:
-            self._track(state, result, frame)
-            if frame % 10 == 0:
-                self._checkpoint(out, result, frame + 1)
+        with self._reading_ahead(range(start, n)):
+            for frame in bar:
+                self._track(state, result, frame)
+                if frame % 10 == 0:
+                    self._checkpoint(out, result, frame + 1)
         bar.close()
         self._checkpoint(out, result, n)
         result.seconds = dict(self.seconds)
@@ -338,6 +360,24 @@ class Tracker:
         self.problems.save(out / PROBLEMS)
         (out / CHECKPOINT).unlink(missing_ok=True)
         return result
+
+    @contextmanager
+    def _reading_ahead(self, frames):
+        """While it lasts, :meth:`masks` takes `frames`, in order, from the read-ahead
+        thread (when the options ask for one)."""
+        if self.options.read_ahead == 0 or not len(frames):
+            yield
+            return
+        if not self._given_silhouettes:
+            self._segmenters()  # built here, not on the other thread
+        ahead = ReadAhead(self._inputs, frames, self.options.read_ahead)
+        try:
+            with ahead:
+                self._ahead = ahead
+                yield
+        finally:
+            self._ahead = None
+            self.seconds["read ahead"] += ahead.seconds
 
     def _frames_to_track(self, frames: int | None) -> int:
         """How many frames to track, after the start-up checks: every camera's frames on
@@ -479,6 +519,15 @@ class Tracker:
         if (out / PROBLEMS).is_file():
             self.problems.extend(ProblemLog.load(out / PROBLEMS))
         return result, int(arrays["next_frame"])
+
+
+@dataclass
+class _Input:
+    """One camera's input of one frame: its mask, or its image and background evidence."""
+
+    mask: np.ndarray | None = None
+    image: np.ndarray | None = None
+    evidence: np.ndarray | None = None
 
 
 class _State:

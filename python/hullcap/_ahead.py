@@ -1,0 +1,74 @@
+"""Work done ahead on a second thread: while the engine fits frame t (without the GIL),
+frame t + 1 is decoded and put through the per-pixel background test, which OpenCV and
+NumPy also do without the GIL, so that the two cores work at once.
+
+Only what does not depend on the fit of frame t may run ahead; the results are those of
+the same calls made in order (tests/test_tracking.py checks a run with and without).
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from collections.abc import Callable, Iterable
+
+__all__ = ["ReadAhead"]
+
+
+class ReadAhead:
+    """``work(item)`` for each of `items`, in order, on a second thread, at most `depth`
+    results ahead of :meth:`take`. An exception of `work` is raised by the :meth:`take`
+    of its item. Use it as a context manager, so that the thread stops with the loop that
+    takes its results.
+
+    Attributes:
+        seconds: time spent in `work` on the second thread.
+    """
+
+    def __init__(self, work: Callable, items: Iterable, depth: int = 2):
+        if depth < 1:
+            raise ValueError(f"depth must be at least 1, got {depth}")
+        self.seconds = 0.0
+        self._results: queue.Queue = queue.Queue(maxsize=depth)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, args=(work, list(items)), name="hullcap-read-ahead",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self, work, items) -> None:
+        for item in items:
+            t0 = time.perf_counter()
+            try:
+                result = (item, work(item), None)
+            except BaseException as e:  # handed to the consumer, which raises it
+                result = (item, None, e)
+            self.seconds += time.perf_counter() - t0
+            while not self._stop.is_set():
+                try:
+                    self._results.put(result, timeout=0.05)
+                    break
+                except queue.Full:
+                    continue
+            if self._stop.is_set() or result[2] is not None:
+                return
+
+    def take(self, item):
+        """The result of ``work(item)``; items must be taken in the order given."""
+        got, value, error = self._results.get()
+        if got != item:
+            raise RuntimeError(f"read-ahead out of order: asked for {item!r}, the next is {got!r}")
+        if error is not None:
+            raise error
+        return value
+
+    def close(self) -> None:
+        """Stop the thread (after the item it is working on) and wait for it."""
+        self._stop.set()
+        self._thread.join()
+
+    def __enter__(self) -> ReadAhead:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
