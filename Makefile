@@ -28,6 +28,7 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_skin.py
 	$(PY) benchmarks/bench_hull.py
 	$(PY) benchmarks/bench_tracking.py
+	$(PY) benchmarks/bench_tracking.py --accuracy
 	$(VENV)/bin/pip install --quiet 'open3d>=0.18'   # needs Debian's libusb-1.0-0
 	$(PY) benchmarks/bench_icp.py
 

@@ -1,32 +1,89 @@
-"""Tracking accuracy and speed on rendered 8-camera sequences.
+"""Tracking speed, stage by stage, against the floor of decoding the frames; and tracking
+accuracy on rendered 8-camera sequences.
 
-For two body proportions unlike the template's (``tall``, ``short``), the scripted motion
+Speed (the default): for an 8-camera 640×480 development sequence (d01_bend, rendered
+into data/devset/ by bench_devset.py) and for the project's own synthetic sequence, in one
+run: the time of only decoding every frame of every camera (the floor), then a tracking
+run from colour frames with the frames read ahead on a second thread and one reading
+each frame when it is tracked. Prints per stage milliseconds per frame, frames/s of the
+fit alone and of tracking (every stage of every frame, the subject's model aside), and
+tracking's time over the floor.
+
+    .venv/bin/python benchmarks/bench_tracking.py [--frames 60] [--devset PATH]
+
+Accuracy (``--accuracy``): for two body proportions unlike the template's (``tall``, ``short``), the scripted motion
 ``all`` (arm swings, a torso twist, a squat, a jump with the arms up, a kick, a walk
 and turn) is rendered at 640×480 and tracked twice: from the exact silhouettes and from
 the colour frames by background subtraction. Prints the mean joint position error per
 joint and overall, the joint-angle error, frames lost, and the speed of each stage.
 
-    .venv/bin/python benchmarks/bench_tracking.py [--frames 240]
+    .venv/bin/python benchmarks/bench_tracking.py --accuracy [--frames 240]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import devset  # noqa: E402
 from hullcap._evaluate import accuracy
 from hullcap._sequence import Sequence
 from hullcap._synth import synthesize
 from hullcap._tracking import Tracker, TrackerOptions
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--frames", type=int, default=240, help="frames per sequence (the jump ends near 230)")
-    ap.add_argument("--subjects", nargs="+", default=["tall", "short"])
-    args = ap.parse_args()
+def decode_seconds(seq: Sequence, frames: int) -> float:
+    """Seconds to decode `frames` frames of every camera, one after another."""
+    t0 = time.perf_counter()
+    for f in range(frames):
+        for cam in seq.cameras:
+            seq.image(f, cam.name)
+    return time.perf_counter() - t0
+
+
+def speed(args) -> None:
+    sequences = {}
+    found = devset.find(args.devset)
+    if found is None:
+        print("development set not found (--devset PATH): the synthetic sequence only\n")
+    else:
+        sequences["d01_bend (development set)"] = devset.render(found, "d01_bend")
+    tmp = tempfile.TemporaryDirectory()
+    sequences["synthetic 'demo', short subject"] = synthesize(Path(tmp.name) / "demo", "demo", 8, "short",
+                                                             show_progress=False)
+    rows = []
+    for label, path in sequences.items():
+        seq = Sequence(path)
+        n = min(args.frames, len(seq))
+        floor = decode_seconds(seq, n) / n
+        for read_ahead in (2, 0):
+            options = TrackerOptions(use_silhouettes=False, read_ahead=read_ahead)
+            result = Tracker(seq, options=options).run(Path(tmp.name) / f"out{read_ahead}", resume=False,
+                                                         show_progress=False, frames=n)
+            sec = {k: v / n for k, v in result.seconds.items()}
+            tracking = sec["silhouettes"] + sec["hull"] + sec["fit"]
+            rows.append((label, read_ahead, 1000 * floor, 1000 * sec.get("read ahead", 0.0), 1000 * sec["silhouettes"],
+                         1000 * sec["hull"], 1000 * sec["fit"], 1 / sec["fit"], 1 / tracking, tracking / floor,
+                         int(result.failed[:n].sum()), n))
+    tmp.cleanup()
+    print(f"# tracking speed from colour frames, 8 cameras 640×480, first {args.frames} frames, "
+          f"{os.cpu_count()} cores\n")
+    print("| sequence | read ahead | decoding alone (ms/frame) | read ahead thread (ms/frame) | silhouettes | hull | "
+          "fit | fit (frames/s) | tracking (frames/s) | tracking / decoding | lost |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r[0]} | {r[1]} | {r[2]:.0f} | {r[3]:.0f} | {r[4]:.0f} | {r[5]:.0f} | {r[6]:.0f} | {r[7]:.1f} | "
+              f"{r[8]:.2f} | {r[9]:.1f}× | {r[10]} of {r[11]} |")
+    print("\nsilhouettes, hull, fit: milliseconds per frame on the tracking thread (with read-ahead, the "
+          "silhouettes' decoding and background test run on the other thread and are not in that column).")
+
+
+def accuracy_tables(args) -> None:
     rows, joint_tables = [], {}
     with tempfile.TemporaryDirectory() as tmp:
         for subject in args.subjects:
@@ -57,6 +114,22 @@ def main():
     print("|---|" + "---|" * len(joint_tables))
     for i, name in enumerate(names):
         print(f"| {name} | " + " | ".join(f"{t[i]:.1f}" for t in joint_tables.values()) + " |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--accuracy", action="store_true", help="the accuracy tables instead of the speed table")
+    ap.add_argument("--frames", type=int, help="frames per sequence (default: 60 for speed, 240 for accuracy, "
+                                               "where the jump ends near 230)")
+    ap.add_argument("--subjects", nargs="+", default=["tall", "short"], help="with --accuracy")
+    ap.add_argument("--devset", help="the development set's folder (default: see benchmarks/devset.py)")
+    args = ap.parse_args()
+    if args.accuracy:
+        args.frames = args.frames or 240
+        accuracy_tables(args)
+    else:
+        args.frames = args.frames or 60
+        speed(args)
 
 
 if __name__ == "__main__":
