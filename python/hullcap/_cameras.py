@@ -246,9 +246,7 @@ class Cameras(Sequence[Camera]):
                 T = _yml_first(fs, ("T", "tvec", "t"), path).reshape(-1)
                 if T.size != 3:
                     raise CalibrationError(f"{path}: the translation must have 3 values, got {T.size}")
-                h, w = fs.getNode("image_height"), fs.getNode("image_width")
-                size = (int(w.real()), int(h.real())) if not (h.empty() or w.empty()) else \
-                    _size_for(image_size, path.stem, path)
+                size = _stored_size(fs, "image_width", "image_height", image_size, path.stem, path)
             cams.append(_with_up(path, path.stem, *size, K, dist, rot.reshape(3, 3), T, up))
         return cls(cams)
 
@@ -339,7 +337,7 @@ def _easymocap_cameras(fi, fe, intri, extri, image_size, up) -> list[Camera]:
         if rot is None:
             rot = cv2.Rodrigues(_yml_mat(fe, f"R_{n}", extri).reshape(3, 1))[0]
         T = _yml_mat(fe, f"T_{n}", extri).reshape(3)
-        w, h = _yml_size(fi, n, image_size, intri)
+        w, h = _stored_size(fi, f"W_{n}", f"H_{n}", image_size, n, intri)
         cams.append(_with_up(intri, n, w, h, K, dist, rot, T, up))
     return cams
 
@@ -359,14 +357,6 @@ def _malformed(where):
 @contextmanager
 def _storage(path):
     """An OpenCV FileStorage opened for reading (released at the end of the block)."""
-    fs = _open_storage(path)
-    try:
-        yield fs
-    finally:
-        fs.release()
-
-
-def _open_storage(path) -> cv2.FileStorage:
     path = Path(path)
     if not path.is_file():
         raise CalibrationError(f"{path}: no such file")
@@ -376,7 +366,10 @@ def _open_storage(path) -> cv2.FileStorage:
         raise CalibrationError(f"{path}: not an OpenCV FileStorage file ({str(e).strip()[-80:]})") from None
     if not fs.isOpened():
         raise CalibrationError(f"{path}: not an OpenCV FileStorage file")
-    return fs
+    try:
+        yield fs
+    finally:
+        fs.release()
 
 
 def _yml_names(fs, path) -> list[str]:
@@ -409,9 +402,11 @@ def _yml_first(fs, keys, path, required=True):
     return None
 
 
-def _yml_size(fs, name, image_size, path):
-    h, w = fs.getNode(f"H_{name}"), fs.getNode(f"W_{name}")
-    if not h.empty() and not w.empty():
+def _stored_size(fs, width_key, height_key, image_size, name, path) -> tuple[int, int]:
+    """Camera `name`'s image size from the file's two keys when it has both, else from the
+    `image_size` argument of the import."""
+    w, h = fs.getNode(width_key), fs.getNode(height_key)
+    if not w.empty() and not h.empty():
         return int(w.real()), int(h.real())
     return _size_for(image_size, name, path)
 

@@ -79,9 +79,10 @@ def _demo(args) -> int:
         print("\n" + acc.table())
         print(f"\nspeed on this machine ({n} frames, {args.cameras} cameras):")
         print(f"  rendering the sequence       {n / render_s:6.1f} frames/s")
-        for stage in ("silhouettes", "hull", "fit"):
+        for stage in ("silhouettes", "read ahead", "hull", "fit"):
             s = result.seconds.get(stage, 0.0)
-            print(f"  {stage:<28} {n / s if s else float('inf'):6.1f} frames/s  ({1000 * s / n:.0f} ms per frame)")
+            label = f"{stage} (2nd thread)" if stage == "read ahead" else stage
+            print(f"  {label:<28} {n / s if s else float('inf'):6.1f} frames/s  ({1000 * s / n:.0f} ms per frame)")
         print(f"  subject model (built, refined) {result.seconds.get('subject', 0):5.1f} s")
         print(f"  whole pipeline               {n / track_s:6.1f} frames/s")
         if args.out:

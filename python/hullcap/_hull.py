@@ -40,6 +40,10 @@ class HullReport:
     mesh_seconds: float = 0.0
 
 
+_FAR = 1e9
+"""The signed distance everywhere for an empty mask (a prior that covers nothing)."""
+
+
 def _boxed_signed_distance(mask) -> np.ndarray:
     """A mask's signed distance to its edge (pixels, positive inside), with the distance
     transforms run only in the mask's bounding box grown by a pixel all round: exact there
@@ -60,9 +64,6 @@ def _boxed_signed_distance(mask) -> np.ndarray:
     signed = np.negative(out, dtype=np.float32)
     signed[y0:y1, x0:x1] = signed_distance(inside[y0:y1, x0:x1])
     return signed
-
-
-_FAR = 1e9
 
 
 class _View:

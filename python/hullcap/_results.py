@@ -21,7 +21,7 @@ import numpy as np
 
 from hullcap._body import BodyModel
 from hullcap._files import atomic_write
-from hullcap._fitting import FitResult
+from hullcap._fitting import FitResult, PoseParameters
 from hullcap.errors import OptionsError, ResultsError
 from hullcap.export._bvh import write_bvh
 from hullcap.export._gltf import write_glb
@@ -109,6 +109,10 @@ class TrackingResult:
                 result.joints[f] = model.pose(result.theta[f], result.root_rotation[f],
                                               result.root_translation[f], clamp=False).joints
         return result
+
+    def pose(self, frame: int) -> PoseParameters:
+        """The pose of `frame` (NaN when it failed)."""
+        return PoseParameters(self.theta[frame], self.root_rotation[frame], self.root_translation[frame])
 
     def record(self, frame: int, result: FitResult, status: int, iterations: int | None = None) -> None:
         """Store a frame's fit with its status; a failed frame keeps the fit's statistics

@@ -288,7 +288,9 @@ class Tracker:
         tolerance = self._hull_tolerance
         # The prior's silhouettes serve the guided masks and the tolerant hull, nothing else.
         used = prior is not None and (tolerance > 0 or self._guides())
+        t0 = time.perf_counter()
         silhouettes = self._silhouettes(*prior) if used else None
+        self.seconds["silhouettes"] += time.perf_counter() - t0  # the prediction, drawn for the masks
         masks = self.masks(frame, silhouettes)
         t0 = time.perf_counter()
         report = HullReport()
@@ -445,7 +447,7 @@ class Tracker:
         if len(good) < 2:
             return subject.model, first, subject.fit
         picks = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, self.options.calibration_frames)})
-        poses = [PoseParameters(window.theta[f], window.root_rotation[f], window.root_translation[f]) for f in picks]
+        poses = [window.pose(f) for f in picks]
         for k, (f, pose) in enumerate(zip(picks, poses)):
             self.learn_colours(f, subject.model, pose, fresh=k == 0)
         hulls = [self.hull(f, (subject.model, pose)) for f, pose in zip(picks, poses)]
@@ -559,8 +561,7 @@ class _State:
             self.reference.append(float(result.quality[f]))
             self.chain_reference.append(chain_quality(result.link_counts[f], self.chains))
         if done:
-            f = done[0]
-            self.anchor_pose = PoseParameters(result.theta[f], result.root_rotation[f], result.root_translation[f])
+            self.anchor_pose = result.pose(done[0])
 
     def anchor_only(self, result: TrackingResult, frame: int) -> bool:
         """Whether nothing before `frame` was tracked and the anchor is the prediction."""
@@ -602,7 +603,7 @@ class _State:
         """Good poses before `frame`, newest first, spaced back over about a second."""
         good = [f for f in range(frame - 1, max(-1, frame - 1 - int(result.fps)), -1) if not result.failed[f]]
         picks = good[:: max(1, len(good) // max(1, self.options.search.recent))][: self.options.search.recent]
-        return [PoseParameters(result.theta[f], result.root_rotation[f], result.root_translation[f]) for f in picks]
+        return [result.pose(f) for f in picks]
 
     def starts(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
         """Constant-velocity prediction from the last two frames when both are good, then
@@ -610,7 +611,7 @@ class _State:
         good = list(islice((f for f in range(frame - 1, -1, -1) if not result.failed[f]), 2))
         if not good:
             return [self.anchor_pose] if self.anchor_pose is not None else []
-        last = PoseParameters(result.theta[good[0]], result.root_rotation[good[0]], result.root_translation[good[0]])
+        last = result.pose(good[0])
         if len(good) < 2 or good[0] - good[1] != 1 or good[0] != frame - 1:
             return [last]
         a, b = good[1], good[0]
