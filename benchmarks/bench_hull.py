@@ -143,8 +143,8 @@ def main():
                 mm = mog[i].mask(img)
                 t_mog += time.perf_counter() - t0
                 masks.append(m)
-                iou_stat.append(((m > 0) & truth).sum() / ((m > 0) | truth).sum())
-                iou_mog.append(((mm > 0) & truth).sum() / ((mm > 0) | truth).sum())
+                iou_stat.append(iou(m, truth))
+                iou_mog.append(iou(mm, truth))
             rep = HullReport()
             t0 = time.perf_counter()
             hull = visual_hull(masks, seq.cameras, 0.01, bounds=BOUNDS, report=rep)

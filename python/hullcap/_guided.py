@@ -141,10 +141,9 @@ class GuidedSegmenter:
         if evidence is None:
             evidence = self.background.evidence(image)
         box = None if prior is None else _box(prior)
-        distortion = evidence + self.background.thresholds.chromaticity
         if box is None:
-            return half_covered(clean_mask(np.where(evidence > 0, 255, 0).astype(np.uint8),
-                                           self.background.min_blob, self.background.max_hole), distortion)
+            return self.background.mask(image, evidence)
+        distortion = evidence + self.background.thresholds.chromaticity
         x, y, w, h = box
         pad = int(round(o.reach * h))
         y0, y1 = max(0, y - pad), min(image.shape[0], y + h + pad)

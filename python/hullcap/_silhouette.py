@@ -127,11 +127,13 @@ class StatisticalBackground:
         ev[(alpha < t.darkest_shadow) | (alpha > t.brightest_highlight)] = FOREGROUND_EVIDENCE
         return ev
 
-    def mask(self, image: np.ndarray) -> np.ndarray:
+    def mask(self, image: np.ndarray, evidence: np.ndarray | None = None) -> np.ndarray:
         """(H, W) uint8 silhouette, 255 = subject, cleaned (see :func:`clean_mask`) and
         with its boundary pixels kept only where at least half covered
-        (:func:`half_covered`)."""
-        evidence = self.evidence(image)
+        (:func:`half_covered`); `evidence`: :meth:`evidence` of `image` when it was
+        computed already."""
+        if evidence is None:
+            evidence = self.evidence(image)
         raw = np.where(evidence > 0, 255, 0).astype(np.uint8)
         return half_covered(clean_mask(raw, self.min_blob, self.max_hole), evidence + self.thresholds.chromaticity)
 
