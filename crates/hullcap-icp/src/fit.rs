@@ -441,6 +441,39 @@ mod tests {
         assert!(stats.iterations > 0);
     }
 
+    /// The sums over pairs are made block by block whatever the number of threads, so a fit
+    /// (two-sided, several rounds) is the same to the last bit on 1, 2 or 3 threads.
+    #[test]
+    fn the_result_does_not_depend_on_the_number_of_threads() {
+        let rig = tube();
+        let target = target_at(&rig, &truth());
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).collect();
+        assert!(
+            points.len() > 3 * 256,
+            "too few pairs to share among threads"
+        );
+        let groups = vec![vec![0, 1], vec![2]];
+        let fitted: Vec<Params> = [1, 2, 3]
+            .iter()
+            .map(|&threads| {
+                let options = FitOptions {
+                    threads: Some(threads),
+                    reverse_weight: 1.0,
+                    rounds: 3,
+                    ..FitOptions::default()
+                };
+                fit(&rig, &target, &points, &start(), &groups, &options)
+                    .unwrap()
+                    .0
+            })
+            .collect();
+        for other in &fitted[1..] {
+            assert_eq!(other.theta, fitted[0].theta);
+            assert_eq!(other.root.translation, fitted[0].root.translation);
+            assert_eq!(other.root.rotation, fitted[0].root.rotation);
+        }
+    }
+
     #[test]
     fn point_to_plane_and_simultaneous_fits_recover_it_too() {
         recovers(&FitOptions {

@@ -169,6 +169,10 @@ pub(crate) struct ShapeColumns<'a> {
     pub d_pose: &'a [Vector3<f64>],
 }
 
+/// The pairs summed into one partial sum (see `Problem::over_pairs`): small enough to share
+/// the work evenly among threads, large enough that adding the partial sums costs little.
+const PAIRS_PER_SUM: usize = 256;
+
 /// What every pass over the model points needs: the rig, the target, the residual kind
 /// and the number of threads.
 pub(crate) struct Problem<'a> {
@@ -185,19 +189,22 @@ impl Problem<'_> {
         root.rotation * self.rig.skin_vertex(pose, i) + root.translation
     }
 
-    /// `visit(accumulator, pairs)` over one contiguous share of `pairs` per thread.
+    /// `visit(accumulator, block)` over consecutive blocks of [`PAIRS_PER_SUM`] pairs, the
+    /// blocks shared among the threads: one partial sum per block, in the order of the
+    /// blocks. The blocks do not depend on the number of threads, so neither do the sums
+    /// (floating-point addition is not associative): a fit gives the same result on any
+    /// machine.
     fn over_pairs<T: Send>(
         &self,
         pairs: &[Pair],
         init: impl Fn() -> T,
         visit: impl Fn(&mut T, &[Pair]) + Sync,
     ) -> Result<Vec<T>, IcpError> {
-        let mut partial: Vec<T> = (0..self.threads.max(1)).map(|_| init()).collect();
-        let per = pairs.len().div_ceil(partial.len()).max(1);
+        let blocks: Vec<&[Pair]> = pairs.chunks(PAIRS_PER_SUM).collect();
+        let mut partial: Vec<T> = blocks.iter().map(|_| init()).collect();
         hullcap_core::for_each_chunk_mut(&mut partial, self.threads, 1, |offset, chunk| {
-            for (c, acc) in chunk.iter_mut().enumerate() {
-                let lo = ((offset + c) * per).min(pairs.len());
-                visit(acc, &pairs[lo..(lo + per).min(pairs.len())]);
+            for (acc, block) in chunk.iter_mut().zip(&blocks[offset..]) {
+                visit(acc, block);
             }
         })?;
         Ok(partial)
