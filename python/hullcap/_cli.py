@@ -14,35 +14,22 @@ __all__ = ["main"]
 
 
 def _track(args) -> int:
-    from hullcap._body import BodyModel
-    from hullcap._hull import axes_meeting_point, format_bounds
-    from hullcap._results import RECOVERED
-    from hullcap._rig import MIN_SURROUND, surround
-    from hullcap._sequence import Sequence
-    from hullcap._tracking import Tracker, TrackerOptions
+    from hullcap._take import TakeOptions, track_take
 
-    seq = Sequence(args.sequence)
-    model = BodyModel.load(args.model) if args.model else None
-    options = TrackerOptions(voxel_size=args.voxel, background=args.background,
-                             use_silhouettes=not args.ignore_silhouettes, refine_joints=args.refine_joints)
-    tracker = Tracker(seq, model=model, options=options, bounds=args.volume)
-    print(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
-          + (" (given)" if args.volume else " (every camera sees it; --volume to change)"))
-    spread = surround(seq.cameras, axes_meeting_point(seq.cameras))
-    if spread < MIN_SURROUND:
-        print(f"hullcap: warning: the cameras surround the person over only {spread:.0f}°: the visual hull reaches far "
-              f"along the viewing direction and tracking may fail (hullcap calib show)", file=sys.stderr)
-    result = tracker.run(args.out, resume=not args.restart, frames=args.frames, interpolate=args.interpolate,
-                         smooth_hz=args.smooth, overlays=not args.no_overlay)
-    made = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png, problems.json"
-    if not args.no_overlay:
-        made += ", overlay/"
-    lost = int(result.failed.sum())
-    recovered = int((result.status == RECOVERED).sum())
-    print(f"{args.out}: {len(result.failed)} frames tracked, {lost} lost, {recovered} re-acquired; {made}")
-    if len(tracker.problems):
-        print(f"problems: {tracker.problems.summary()} (all in {Path(args.out) / 'problems.json'})")
+    options = TakeOptions(voxel=args.voxel, background=args.background, ignore_silhouettes=args.ignore_silhouettes,
+                          volume=args.volume, frames=args.frames, refine_joints=args.refine_joints,
+                          overlays=not args.no_overlay, interpolate=args.interpolate, smooth=args.smooth)
+    track_take(args.sequence, args.out, options, model=args.model, resume=not args.restart, say=print,
+               warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
     return 0
+
+
+def _batch(args) -> int:
+    from hullcap._batch import default_runner, run_batch
+
+    runner = default_runner(args.sequential, args.address, args.cpus_per_take)
+    rows = run_batch(args.session, args.out, runner, restart=args.restart)
+    return 0 if all(row.finished for row in rows) else 1
 
 
 def _synth(args) -> int:
@@ -148,14 +135,14 @@ def _calib_show(args) -> int:
 
 
 def _volume(text: str):
-    """``--volume x0,y0,z0,x1,y1,z1`` → ((x0, y0, z0), (x1, y1, z1))."""
+    """``--volume x0,y0,z0,x1,y1,z1`` → (x0, y0, z0, x1, y1, z1)."""
     try:
         v = [float(x) for x in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {text!r}") from None
     if len(v) != 6:
         raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {len(v)}")
-    return (v[:3], v[3:])
+    return tuple(v)
 
 
 def _output_options(p) -> None:
@@ -197,6 +184,23 @@ def build_parser() -> argparse.ArgumentParser:
                         "and joint centres from the first seconds of motion, then track from the start)")
     _output_options(t)
     t.set_defaults(run=_track)
+
+    b = sub.add_parser("batch", help="track every take of a session folder, on Ray", description=(
+        "Track every take of a session folder (its sequence folders, or those its session.toml lists, with "
+        "each person's calibration take and per-take options: docs/batch.md) into OUT/<take>/, as hullcap "
+        "track does, reusing one subject model per person. Runs on Ray when it is installed (hullcap[ray]): "
+        "on this machine's cores, or on a cluster with --address. A take that fails is tried once more; "
+        "a re-run skips finished takes and resumes interrupted ones. Ends with a summary table "
+        "(OUT/summary.csv); the exit status is 1 when a take failed."))
+    b.add_argument("session", help="the session folder")
+    b.add_argument("--out", required=True, help="the results folder: one folder per take")
+    b.add_argument("--address", help="the Ray cluster to run on, e.g. ray://head:10001 or auto (default: start "
+                                      "Ray on this machine)")
+    b.add_argument("--cpus-per-take", type=float, default=1.0, metavar="N",
+                   help="CPUs Ray reserves for each take (default 1: as many takes at once as cores)")
+    b.add_argument("--sequential", action="store_true", help="one take after another in this process, without Ray")
+    b.add_argument("--restart", action="store_true", help="track every take again, finished or not")
+    b.set_defaults(run=_batch)
 
     s = sub.add_parser("synth", help="render a synthetic sequence with ground truth", description=(
         "Render the template body with other proportions through a scripted motion into a "

@@ -12,7 +12,7 @@ an engine bug — a panic, caught before it can cross into Python — as :class:
 from __future__ import annotations
 
 __all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ViewError", "ModelError",
-           "HullError", "FitError", "ArrayError", "TrackingError", "ResultsError", "EngineError"]
+           "HullError", "FitError", "ArrayError", "TrackingError", "ResultsError", "SessionError", "EngineError"]
 
 
 class HullcapError(Exception):
@@ -74,6 +74,10 @@ class TrackingError(HullcapError, ValueError):
 
 class ResultsError(HullcapError, ValueError):
     """A run's results folder or one of its files."""
+
+
+class SessionError(HullcapError, ValueError):
+    """A session folder of takes or its ``session.toml`` (docs/batch.md)."""
 
 
 class EngineError(HullcapError, RuntimeError):
