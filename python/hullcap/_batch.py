@@ -22,7 +22,7 @@ import shutil
 import sys
 import time
 from collections import defaultdict, deque
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from hullcap._files import atomic_write
@@ -41,13 +41,15 @@ ATTEMPTS = 2
 
 @dataclass(frozen=True)
 class Job:
-    """What a worker needs to track one take (absolute paths: a worker's folder differs)."""
+    """What a worker needs to track one take (absolute paths: a worker's folder differs);
+    `threads` caps the engine's threads (``None``: all cores)."""
 
     take: Take
     partial: Path
     final: Path
     model: Path | None
     show_progress: bool = False
+    threads: int | None = None
 
 
 @dataclass(frozen=True)
@@ -62,6 +64,10 @@ def run_take(job: Job) -> Outcome:
     """Track one take into its partial folder, then publish it (the task a worker runs).
     An error comes back as the outcome, so that the driver reports it the same way
     whichever runner ran the task."""
+    if job.threads is not None:
+        # This process is the worker's: the engine reads it at each call (the results
+        # do not depend on it, docs/batch.md).
+        os.environ["HULLCAP_THREADS"] = str(job.threads)
     try:
         if job.final.exists():
             raise SessionError(f"{job.final} appeared while the take was tracked (another batch on the same OUT?)")
@@ -112,7 +118,7 @@ class InProcess:
         return len(self._queue)
 
     def submit(self, job: Job) -> None:
-        self._queue.append(Job(job.take, job.partial, job.final, job.model, show_progress=True))
+        self._queue.append(replace(job, show_progress=True))
 
     def next_done(self) -> tuple[Job, Outcome]:
         job = self._queue.popleft()
@@ -161,7 +167,8 @@ class RayRunner:
         return len(self._refs)
 
     def submit(self, job: Job) -> None:
-        self._refs[self._task.remote(job)] = job
+        # The engine's threads on the CPUs Ray reserved, not on every core of the node.
+        self._refs[self._task.remote(replace(job, threads=max(1, int(self._cpus_per_take))))] = job
 
     def next_done(self) -> tuple[Job, Outcome]:
         ray = self._ray

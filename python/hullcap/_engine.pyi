@@ -65,7 +65,7 @@ class NormalKDTree:
             normals: (M, 3) query normals, any non-zero length.
             max_distance: largest distance in space (metres) of an accepted pair.
             max_angle: largest angle between normals (radians) of an accepted pair.
-            threads: worker threads; ``None`` = all cores.
+            threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
 
         Returns:
             ``(indices, distances)``: (M,) int64 indices into the tree's points (-1 where
@@ -114,7 +114,7 @@ def skin_weights(
         k: weights kept per vertex; 1 is the rigid segment model.
         groups: for each link, the bone it moves with (structure links share their
             parent's bone; their weights are summed into it). Default: each its own.
-        threads: worker threads; ``None`` = all cores.
+        threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
 
     Returns:
         ``(links, weights)``: (V, K) int64 bone indices and (V, K) float64 weights, largest
@@ -198,7 +198,7 @@ def rasterize(
         faces: (T, 3) vertex indices.
         width, height: image size in pixels.
         near: triangles with a corner at depth <= near are skipped.
-        threads: worker threads; ``None`` = all cores.
+        threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
 
     Returns:
         ``(depth, face)``: (height, width) float32 depth of the nearest surface (inf where

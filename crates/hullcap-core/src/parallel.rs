@@ -13,12 +13,33 @@ use std::thread;
 #[error("an engine worker thread panicked: {0}")]
 pub struct WorkerPanicked(pub String);
 
-/// The number of threads to use: `requested` when given and non-zero, otherwise every
-/// core `std::thread::available_parallelism` reports (1 if it cannot tell).
+/// The environment variable that caps the engine's threads when a call does not say how
+/// many (a batch worker given one core sets it to 1, docs/batch.md).
+const THREADS_VARIABLE: &str = "HULLCAP_THREADS";
+
+/// The number of threads to use: `requested` when given and non-zero, else the positive
+/// whole number in [`THREADS_VARIABLE`] when it holds one, else every core
+/// `std::thread::available_parallelism` reports (1 if it cannot tell). The results of
+/// the engine do not depend on it, only its speed.
 pub fn resolve_threads(requested: Option<usize>) -> usize {
-    match requested {
-        Some(n) if n > 0 => n,
-        _ => thread::available_parallelism().map_or(1, NonZeroUsize::get),
+    let from_environment = std::env::var(THREADS_VARIABLE).ok();
+    choose_threads(requested, from_environment.as_deref(), || {
+        thread::available_parallelism().map_or(1, NonZeroUsize::get)
+    })
+}
+
+fn choose_threads(
+    requested: Option<usize>,
+    from_environment: Option<&str>,
+    cores: impl FnOnce() -> usize,
+) -> usize {
+    match (
+        requested,
+        from_environment.and_then(|v| v.trim().parse::<usize>().ok()),
+    ) {
+        (Some(n), _) if n > 0 => n,
+        (_, Some(n)) if n > 0 => n,
+        _ => cores(),
     }
 }
 
@@ -133,5 +154,16 @@ mod tests {
         assert!(resolve_threads(None) >= 1);
         assert_eq!(resolve_threads(Some(0)), resolve_threads(None));
         assert_eq!(resolve_threads(Some(3)), 3);
+    }
+
+    #[test]
+    fn the_environment_caps_threads_a_call_leaves_open() {
+        let cores = || 8;
+        assert_eq!(choose_threads(None, Some("2"), cores), 2);
+        assert_eq!(choose_threads(Some(0), Some(" 3 "), cores), 3);
+        assert_eq!(choose_threads(Some(5), Some("2"), cores), 5);
+        for ignored in [None, Some("0"), Some("many"), Some("-1"), Some("")] {
+            assert_eq!(choose_threads(None, ignored, cores), 8, "{ignored:?}");
+        }
     }
 }
