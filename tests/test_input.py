@@ -33,6 +33,34 @@ def test_projection_matches_opencv_and_back_projection_inverts_it(rng):
     assert np.allclose(z, (X - origin) @ cam.R[2])
 
 
+def test_the_engine_samples_images_where_the_numpy_projection_lands(rng):
+    """The hull's lookups (one engine pass) against projecting with NumPy and indexing:
+    distortion, points behind the camera and outside the image included."""
+    from hullcap._engine import sample_at_projections
+    from hullcap.errors import ArrayError
+
+    cam = distorted_camera()
+    X = np.concatenate([rng.uniform(-1.5, 1.5, (20_000, 3)) + (0, 0, 1), cam.centre + rng.normal(0, 0.5, (500, 3))])
+    images = [rng.normal(size=(480, 640)).astype(np.float32), rng.normal(size=(480, 640)).astype(np.float32)]
+    values, depth = sample_at_projections(X, cam.K, cam.dist, cam.R, cam.t, images, threads=2)
+    px, z = cam.project(X)
+    with np.errstate(invalid="ignore"):  # pixels of points at the camera's centre plane
+        u, v = np.rint(px[:, 0]).astype(np.int64), np.rint(px[:, 1]).astype(np.int64)
+    ok = (z > 1e-6) & (u >= 0) & (u < 640) & (v >= 0) & (v < 480)
+    assert 0.2 < ok.mean() < 0.95 and (z <= 1e-6).any()
+    for image, got in zip(images, values):
+        want = np.full(len(X), np.inf, np.float32)
+        want[ok] = image[v[ok], u[ok]]
+        assert np.array_equal(got, want)
+    assert np.allclose(depth, np.where(z > 1e-6, z, np.inf), rtol=0, atol=1e-12)
+    with pytest.raises(ArrayError, match=r"images\[1\] is 3×2, images\[0\] 640×480"):
+        sample_at_projections(X, cam.K, cam.dist, cam.R, cam.t, [images[0], np.zeros((2, 3))])
+    with pytest.raises(ArrayError, match="dist must hold 5 numbers"):
+        sample_at_projections(X, cam.K, cam.dist[:4], cam.R, cam.t, images)
+    with pytest.raises(ArrayError, match="images is empty"):
+        sample_at_projections(X, cam.K, cam.dist, cam.R, cam.t, [])
+
+
 def test_cameras_json_round_trip_and_validation(tmp_path):
     cams = Cameras(list(ring(4)) + [distorted_camera()])
     cams.save(tmp_path / "cameras.json")

@@ -317,3 +317,29 @@ def evaluate(
     """The statistics of each pose as ``fit`` reports them, without fitting (fresh
     correspondences both ways), the poses spread over the threads: how a search ranks
     its candidates."""
+
+def sample_at_projections(
+    points: ArrayLike3,
+    K: npt.ArrayLike,
+    dist: npt.ArrayLike,
+    R: npt.ArrayLike,
+    t: npt.ArrayLike,
+    images: list[npt.ArrayLike],
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float64]]:
+    """Images sampled at the projections of world points (the visual hull's lookups).
+
+    Args:
+        points: (N, 3) world points.
+        K, dist, R, t: a camera as :class:`hullcap.Camera` holds it: (3, 3) intrinsics,
+            5 distortion coefficients (k1, k2, p1, p2, k3), (3, 3) rotation and (3,)
+            translation from the world to the camera.
+        images: one or more (height, width) images of the camera (as float32).
+        threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
+
+    Returns:
+        ``(values, depth)``: (len(images), N) float32, each image's value at the pixel
+        nearest the point's projection (ties to even), +inf where the point projects
+        outside the image or lies behind the camera (depth at most 1e-6 m); (N,) float64
+        camera depth, +inf behind the camera.
+    """

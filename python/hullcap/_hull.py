@@ -23,6 +23,7 @@ from scipy import ndimage
 from skimage.measure import marching_cubes
 
 from hullcap._cameras import Cameras
+from hullcap._engine import sample_at_projections
 from hullcap._mesh import Surface
 from hullcap._silhouette import signed_distance
 from hullcap.errors import CalibrationError, HullError
@@ -79,18 +80,13 @@ class _View:
     def lookup(self, points):
         """(signed distance in pixels at each point's projection, the same in the prior
         (+inf without one), depth); points outside the image or behind the camera get
-        +inf (this view cannot carve them)."""
-        px, z = self.camera.project(points)
-        u = np.rint(px[:, 0]).astype(np.int64)
-        v = np.rint(px[:, 1]).astype(np.int64)
-        h, w = self.signed.shape
-        ok = (z > 1e-6) & (u >= 0) & (u < w) & (v >= 0) & (v < h)
-        d = np.full(len(points), np.inf, np.float32)
-        d[ok] = self.signed[v[ok], u[ok]]
-        p = np.full(len(points), np.inf, np.float32)
-        if self.prior is not None:
-            p[ok] = self.prior[v[ok], u[ok]]
-        return d, p, np.where(z > 1e-6, z, np.inf)
+        +inf (this view cannot carve them). One engine pass per view: projecting every
+        voxel centre into every view was half the hull's time in NumPy."""
+        cam = self.camera
+        images = [self.signed] if self.prior is None else [self.signed, self.prior]
+        values, depth = sample_at_projections(points, cam.K, cam.dist, cam.R, cam.t, images)
+        prior = values[1] if self.prior is not None else np.full(len(points), np.inf, np.float32)
+        return values[0], prior, depth
 
 
 def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,

@@ -1,4 +1,5 @@
-//! Z-buffered rasterisation of triangle meshes already projected to pixels.
+//! Image-space kernels: z-buffered rasterisation of triangle meshes already projected to
+//! pixels, and images sampled at the projections of world points.
 //!
 //! The renderer of synthetic sequences (`hullcap._synth`) projects a mesh into each camera
 //! (with its distortion) and hands the engine pixel coordinates and camera depths; the
@@ -11,6 +12,13 @@
 //! perspective-correctly (1/z is linear in the image). Triangles with a corner at or
 //! behind the camera's near plane are skipped, not clipped.
 
+//!
+//! The visual hull (`hullcap._hull`) asks, for every voxel centre and view, the value of the
+//! view's distance image at the centre's projection: [`sample_at_projections`] projects
+//! (with distortion) and looks up in one pass over the points, in parallel.
+
 mod raster;
+mod sample;
 
 pub use raster::{RasterError, Rendered, rasterize};
+pub use sample::{Camera, sample_at_projections};

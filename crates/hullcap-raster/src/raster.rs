@@ -23,6 +23,18 @@ pub enum RasterError {
         /// Height in pixels.
         height: usize,
     },
+    /// An image to sample does not hold `width × height` values (or more than 2^32).
+    #[error("image {index} holds {len} values, not {width}×{height}")]
+    ImageSize {
+        /// Its place in the list.
+        index: usize,
+        /// Its number of values.
+        len: usize,
+        /// Width in pixels.
+        width: usize,
+        /// Height in pixels.
+        height: usize,
+    },
     /// A worker thread panicked.
     #[error(transparent)]
     Panicked(#[from] WorkerPanicked),
