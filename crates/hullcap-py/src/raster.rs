@@ -54,24 +54,16 @@ pub(crate) fn sample_at_projections<'py>(
     let points = rows3(points, "points")?;
     let camera = hullcap_raster::Camera {
         k: matrix3(K, "K")?,
-        dist: flat_floats(dist, "dist", &[])?
-            .try_into()
-            .map_err(|v: Vec<f64>| {
-                ArrayError::new_err(format!("dist must hold 5 numbers, got {}", v.len()))
-            })?,
+        dist: exactly(flat_floats(dist, "dist", &[])?, "dist")?,
         r: matrix3(R, "R")?,
-        t: flat_floats(t, "t", &[])?
-            .try_into()
-            .map_err(|v: Vec<f64>| {
-                ArrayError::new_err(format!("t must hold 3 numbers, got {}", v.len()))
-            })?,
+        t: exactly(flat_floats(t, "t", &[])?, "t")?,
     };
     let threads = arrays::threads(threads)?;
     let mut shape = None;
     let mut arrays_f32 = Vec::with_capacity(images.len());
+    let np = py.import("numpy")?;
     for (i, image) in images.iter().enumerate() {
         let name = format!("images[{i}]");
-        let np = py.import("numpy")?;
         let arr = np
             .call_method1("ascontiguousarray", (image, "float32"))
             .map_err(|e| ArrayError::new_err(format!("{name} is not an array of numbers: {e}")))?;
@@ -106,16 +98,13 @@ pub(crate) fn sample_at_projections<'py>(
 
 /// `obj` as a 3 × 3 float64 matrix, row-major.
 fn matrix3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 3]> {
-    let flat = flat_floats(obj, name, &[3])?;
-    if flat.len() != 9 {
-        return Err(ArrayError::new_err(format!(
-            "{name} must have shape (3, 3), got {} rows",
-            flat.len() / 3
-        )));
-    }
-    Ok([
-        [flat[0], flat[1], flat[2]],
-        [flat[3], flat[4], flat[5]],
-        [flat[6], flat[7], flat[8]],
-    ])
+    let m: [f64; 9] = exactly(flat_floats(obj, name, &[3])?, name)?;
+    Ok([[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]])
+}
+
+/// `values` as exactly `N` numbers, or an error naming the argument.
+fn exactly<const N: usize>(values: Vec<f64>, name: &str) -> PyResult<[f64; N]> {
+    values.try_into().map_err(|v: Vec<f64>| {
+        ArrayError::new_err(format!("{name} must hold {N} numbers, got {}", v.len()))
+    })
 }
