@@ -1,7 +1,8 @@
 # The README's two commands are `make demo` and `make test`; both set everything up.
 #   make demo    build the engine (release) into .venv and run the demo
 #   make test    the same set-up, then cargo test + pytest
-#   make bench   every benchmark, with its reference peers (SciPy, pykdtree, Open3D)
+#   make bench   every benchmark, with its reference peers (SciPy, pykdtree, Open3D), and the
+#                development set last (where it is: benchmarks/devset.py)
 #   make paper   the paper's evaluation: plots and docs/paper.md
 #   make wheel   a release wheel in dist/
 
@@ -29,6 +30,8 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_hull.py
 	$(PY) benchmarks/bench_tracking.py
 	$(PY) benchmarks/bench_tracking.py --accuracy
+	$(PY) benchmarks/bench_batch.py
+	$(PY) benchmarks/bench_devset.py --silhouettes colour exact   # the benchmark of record, ~45 min
 	$(VENV)/bin/pip install --quiet 'open3d>=0.18'   # needs Debian's libusb-1.0-0
 	$(PY) benchmarks/bench_icp.py
 
