@@ -2,6 +2,7 @@
 take alone; failures are retried once and reported; a re-run skips finished takes."""
 
 import csv
+from pathlib import Path
 
 import pytest
 import ray
@@ -130,3 +131,15 @@ def test_a_bad_session_toml_is_named_with_what_is_wrong(tmp_path, toml, message)
     with pytest.raises(SessionError) as e:
         load_session(_session(tmp_path, toml))
     assert message in str(e.value) and "session.toml" in str(e.value)
+
+
+def test_the_session_toml_of_docs_batch_md_means_what_it_says(tmp_path):
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "batch.md").read_text()
+    toml = doc.split("```toml\n", 1)[1].split("```", 1)[0]
+    takes = load_session(_session(tmp_path, toml, ["anna_static", "anna_walk", "ben_static", "ben_jump", "warmup"]))
+    assert [(t.name, t.subject, t.calibration, t.options.frames, t.options.voxel, t.options.overlays)
+            for t in takes] == [("anna_static", "anna", None, None, 0.01, False),
+                                ("ben_static", "ben", None, None, 0.01, False),
+                                ("warmup", None, None, None, 0.008, False),
+                                ("anna_walk", "anna", "anna_static", None, 0.01, False),
+                                ("ben_jump", "ben", "ben_static", 300, 0.01, False)]
