@@ -19,6 +19,7 @@ from pathlib import Path
 from hullcap._batch import InProcess, RayRunner, run_batch
 from hullcap._synth import SUBJECTS, synthesize
 
+# hullcap._motions.MOTIONS without "all", in the order the figures of docs/performance.md used.
 MOTIONS = ["demo", "squat", "kick", "arm_swing", "twist", "jump", "walk_turn"]
 
 

@@ -61,7 +61,7 @@ def load_session(folder) -> list[Take]:
         raise SessionError(f"{folder}: no such session folder")
     config = folder / SESSION_FILE
     if not config.is_file():
-        names = sorted(p.name for p in folder.iterdir() if (p / "cameras.json").is_file())
+        names = _sequence_folders(folder)
         if not names:
             raise SessionError(f"{folder}: no take in it (a sequence folder with cameras.json) and no {SESSION_FILE}")
         return [Take(name, folder / name, None, None, TakeOptions()) for name in names]
@@ -75,8 +75,7 @@ def load_session(folder) -> list[Take]:
         if not isinstance(take, str):
             raise SessionError(f"{config} [subjects]: {person} must name a take folder, got {take!r}")
         _check_take_folder(folder, take, f"{config} [subjects] {person}")
-    listed = _table(doc, "takes", config) if "takes" in doc else {
-        p.name: {} for p in sorted(folder.iterdir()) if (p / "cameras.json").is_file()}
+    listed = _table(doc, "takes", config) if "takes" in doc else {name: {} for name in _sequence_folders(folder)}
     entries = {take: {"subject": person} for person, take in subjects.items()}
     for name, entry in listed.items():
         where = f"{config} [takes] {name}"
@@ -103,6 +102,11 @@ def load_session(folder) -> list[Take]:
     if not takes:
         raise SessionError(f"{config}: no take to track")
     return sorted(takes, key=lambda t: t.calibration is not None)
+
+
+def _sequence_folders(folder: Path) -> list[str]:
+    """The names of the folders directly in `folder` that hold a ``cameras.json``, sorted."""
+    return sorted(p.name for p in folder.iterdir() if (p / "cameras.json").is_file())
 
 
 def _table(doc: dict, key: str, config: Path) -> dict:

@@ -53,7 +53,7 @@ class TakeOptions:
         """Options from a TOML table (`where` names it in errors) over `base`: every key
         must be a field, of its type."""
         base = base or cls()
-        known = {f.name: f for f in fields(cls)}
+        known = [f.name for f in fields(cls)]
         values = asdict(base)
         for key, value in table.items():
             if key not in known:

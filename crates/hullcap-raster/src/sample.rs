@@ -28,8 +28,7 @@ impl Camera {
         let x = r[0][0] * p[0] + r[0][1] * p[1] + r[0][2] * p[2] + t[0];
         let y = r[1][0] * p[0] + r[1][1] * p[1] + r[1][2] * p[2] + t[1];
         let z = r[2][0] * p[0] + r[2][1] * p[1] + r[2][2] * p[2] + t[2];
-        let safe = if z.abs() > 1e-12 { z } else { 1e-12 };
-        let (mut a, mut b) = (x / safe, y / safe);
+        let (mut a, mut b) = (x / z, y / z);
         let [k1, k2, p1, p2, k3] = self.dist;
         if self.dist.iter().any(|&d| d != 0.0) {
             let r2 = a * a + b * b;
