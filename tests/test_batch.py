@@ -109,9 +109,9 @@ def test_a_session_without_session_toml_is_every_sequence_folder(tmp_path):
 
 def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_path):
     takes = load_session(_session(tmp_path, '[defaults]\nvoxel = 0.02\n[subjects]\np = "b"\n'
-                                            '[takes]\na = { subject = "p", frames = 7 }\n'))
+                                            '[takes]\na = { subject = "p", frames = 7 }\nb = { frames = 9 }\n'))
     assert [(t.name, t.subject, t.calibration, t.options.voxel, t.options.frames) for t in takes] == [
-        ("b", "p", None, 0.02, None), ("a", "p", "b", 0.02, 7)]
+        ("b", "p", None, 0.02, 9), ("a", "p", "b", 0.02, 7)]
 
 
 @pytest.mark.parametrize("toml, message", [

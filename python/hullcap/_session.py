@@ -85,9 +85,10 @@ def load_session(folder) -> list[Take]:
             raise SessionError(f"{where}: a subject's name or a table of options, got {entry!r}")
         entry = dict(entry)
         calibrating = entries.get(name, {}).get("subject")
-        if calibrating is not None and entry.get("subject", calibrating) != calibrating:
-            raise SessionError(f"{where}: it is {calibrating}'s calibration take ([subjects]), "
-                               f"not {entry['subject']}'s")
+        if calibrating is not None:
+            if entry.setdefault("subject", calibrating) != calibrating:
+                raise SessionError(f"{where}: it is {calibrating}'s calibration take ([subjects]), "
+                                   f"not {entry['subject']}'s")
         entries[name] = entry
     takes = []
     for name, entry in entries.items():
