@@ -90,3 +90,41 @@ def test_failed_frames_are_interpolated_only_when_asked_and_smoothing_keeps_raw(
     with pytest.raises(ValueError, match="half the frame rate"):
         smooth_joints(result.joints, 30.0, 20.0)
     assert FAILED == result.status[10]
+
+
+def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
+    """The exact mesh of arms raised overhead, the clavicles lifted 28°: a fit from the same
+    arm line reached by the shoulders alone stays in that valley with the shoulder 6 cm
+    low; the girdle start, which shares the elevation as the scapulohumeral rhythm does,
+    explains the mesh fully and puts the shoulder back."""
+    from hullcap._fitting import PoseParameters, fit, make_target, quality
+    from hullcap._mesh import Surface
+    from hullcap._reacquire import PoseSearch
+
+    model = BodyModel.template()
+    names = list(model.dof_names)
+
+    def raised(clavicle, abduction):
+        theta = np.zeros(model.n_dofs)
+        for side in "lr":
+            theta[names.index(f"{side}_clavicle_elevation")] = np.radians(clavicle)
+            theta[names.index(f"{side}_shoulder_abduction")] = np.radians(abduction)
+            theta[names.index(f"{side}_shoulder_flexion")] = np.radians(10)
+        return PoseParameters(theta, np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
+
+    truth = model.pose(raised(28, 57).theta, root_translation=raised(28, 57).root_translation)
+    target = make_target(Surface(truth.vertices, model.faces, truth.normals))
+    shoulders = [model.joint_names.index(f"{side}_shoulder") for side in "lr"]
+
+    def shoulder_error(fitted):
+        p = fitted.pose
+        joints = model.pose(p.theta, p.root_rotation, p.root_translation).joints
+        return np.linalg.norm(joints[shoulders] - truth.joints[shoulders], axis=1).max()
+
+    options = TrackerOptions().fit
+    plain = fit(model, target, raised(0, 85), options)
+    girdle = PoseSearch(model, options).shoulder_girdle(target, plain)
+    assert shoulder_error(plain) > 0.04  # the valley the start is for
+    assert quality(girdle) > quality(plain) + 0.02
+    assert shoulder_error(girdle) < 0.02
+    assert PoseSearch(model, options).shoulder_girdle(target, girdle) is None  # in rhythm: nothing to try

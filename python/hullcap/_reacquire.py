@@ -12,10 +12,18 @@ starts from the hull instead:
 3. each limb chain of the best fit re-sampled on its own (joint angles drawn within their
    limits, the rest of the body held), scored, and the best sample fitted when it explains
    more of the hull.
+
+One local minimum needs no search, only a second start (:meth:`PoseSearch.shoulder_girdle`):
+an arm raised above the shoulder can be reached by the shoulder joint alone or with the
+shoulder girdle (the clavicle) lifted as well. Both put the arm along the same line, and
+the hull cannot tell them apart along a straight arm; but only the second lifts the
+shoulder where a person's shoulder goes, and the fit, which changes the two angles by
+small steps along that valley, rarely crosses from the first to the second.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,16 +68,28 @@ class SearchOptions:
         chain_samples: joint-angle draws per limb chain.
         recent: recent good poses taken into the library (the newest, and others spaced
             back over about a second).
+        girdle_share: the part of an arm's elevation above the horizontal that the shoulder
+            girdle (the clavicle's elevation) takes in :meth:`PoseSearch.shoulder_girdle`'s
+            start: 1/3, the scapulohumeral rhythm (above the first 30° of elevation the
+            shoulder joint turns 2° for each degree of the girdle; Inman, Saunders and
+            Abbott 1944). 0 turns that start off.
+        girdle_margin: that start is tried when the clavicle of a raised arm lies more
+            than this below its share (radians).
     """
 
     headings: int = 8
     keep: int = 3
     chain_samples: int = 48
     recent: int = 3
+    girdle_share: float = 1 / 3
+    girdle_margin: float = math.radians(10.0)
 
     def __post_init__(self):
         if min(self.headings, self.keep, self.chain_samples, self.recent) < 1:
             raise OptionsError("SearchOptions: headings, keep, chain_samples and recent must be at least 1")
+        if not (0 <= self.girdle_share < 1 and self.girdle_margin > 0):
+            raise OptionsError(f"SearchOptions: girdle_share must be in [0, 1) and girdle_margin positive, got "
+                               f"{self.girdle_share} and {self.girdle_margin}")
 
 
 def chain_links(model: BodyModel) -> list[np.ndarray]:
@@ -107,6 +127,28 @@ class PoseSearch:
         self._canonical_centroids = [self._centroid(theta) for theta in self._canonical]
         dof_links = model.link_model.dof_links
         self._chains = [np.flatnonzero(np.isin(dof_links, links)) for links in chain_links(model)]
+        self._girdle = _girdle_dofs(model)
+
+    def shoulder_girdle(self, target, fitted: FitResult) -> FitResult | None:
+        """A fit from `fitted` with each raised arm's elevation shared between the shoulder
+        and the girdle as ``options.girdle_share`` says, when the girdle of a raised arm
+        lies more than ``options.girdle_margin`` below that share; ``None`` when no arm
+        does (or the model has no clavicles). The caller keeps the better of the two: the
+        data decide, the rhythm only says where to look (see the module documentation)."""
+        share = self.options.girdle_share
+        if share == 0 or not self._girdle:
+            return None
+        theta = np.array(fitted.pose.theta, float)
+        moved = False
+        for clavicle, shoulder in self._girdle:
+            total = theta[clavicle] + theta[shoulder]  # both turn the arm about the same axis at rest
+            if total > 0 and theta[clavicle] < share * total - self.options.girdle_margin:
+                theta[clavicle], theta[shoulder] = share * total, (1 - share) * total
+                moved = True
+        if not moved:
+            return None
+        start = PoseParameters(self.model.clamp(theta), fitted.pose.root_rotation, fitted.pose.root_translation)
+        return fit(self.model, target, start, self.fit_options)
 
     def resample(self, target, start: FitResult, chains) -> tuple[FitResult, int]:
         """`start` with each chain of `chains` (indices into :data:`CHAINS`) re-sampled on
@@ -167,6 +209,13 @@ class PoseSearch:
                                  [np.asarray(p.root_translation, float) for p in poses], self.fit_options)
         order = np.argsort([-quality(s) for s in stats], kind="stable")
         return [poses[i] for i in order]
+
+
+def _girdle_dofs(model: BodyModel) -> list[tuple[int, int]]:
+    """``(clavicle elevation, shoulder abduction)`` DOF indices of each side that has both."""
+    names = model.dof_names
+    return [(names.index(f"{s}_clavicle_elevation"), names.index(f"{s}_shoulder_abduction")) for s in "lr"
+            if f"{s}_clavicle_elevation" in names and f"{s}_shoulder_abduction" in names]
 
 
 def _angles(model: BodyModel, spec: dict) -> np.ndarray:

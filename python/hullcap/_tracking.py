@@ -477,6 +477,12 @@ class Tracker:
                 best = fitted
             if state.good(best):
                 break
+        if best is not None:
+            girdle = state.search.shoulder_girdle(target, best)
+            if girdle is not None:
+                iterations += girdle.iterations
+                if quality(girdle) > quality(best):
+                    best = girdle
         status = GOOD if best is not None and state.good(best) else FAILED
         if status == FAILED and self.options.reacquire:
             found = best
