@@ -123,8 +123,8 @@ def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
 
     options = TrackerOptions().fit
     plain = fit(model, target, raised(0, 85), options)
-    girdle = PoseSearch(model, options).shoulder_girdle(target, plain)
+    girdle = fit(model, target, PoseSearch(model, options).girdle_start(plain.pose), options)
     assert shoulder_error(plain) > 0.04  # the valley the start is for
     assert quality(girdle) > quality(plain) + 0.02
     assert shoulder_error(girdle) < 0.02
-    assert PoseSearch(model, options).shoulder_girdle(target, girdle) is None  # in rhythm: nothing to try
+    assert PoseSearch(model, options).girdle_start(girdle.pose) is None  # in rhythm: nothing to try

@@ -40,6 +40,31 @@ def test_a_perturbed_pose_is_recovered_from_the_exact_mesh(model, options):
         fit(model, Surface(posed.vertices, model.faces, posed.normals), PoseParameters(np.zeros(3)))
 
 
+def test_a_pose_prior_holds_a_joint_the_mesh_would_move(model):
+    """Through the binding: a stiff prior keeps the left elbow where it started although
+    the mesh bends it 60°; an infinite one changes nothing; a prior of the wrong length is
+    refused by name."""
+    from hullcap._fitting import PosePrior
+
+    elbow = model.dof_names.index("l_elbow_flexion")
+    theta = np.zeros(model.n_dofs)
+    theta[elbow] = np.radians(60)
+    root = np.array([0.0, 0.0, 0.95])
+    posed = model.pose(theta, root_translation=root)
+    target = Surface(posed.vertices, model.faces, posed.normals)
+    start = PoseParameters(np.zeros(model.n_dofs), np.eye(3), root)
+    plain = fit(model, target, start)
+    stiff = np.full(model.n_dofs, np.inf)
+    stiff[elbow] = np.radians(1)
+    held = fit(model, target, start, prior=PosePrior(start.theta, stiff, 0.003))
+    free = fit(model, target, start, prior=PosePrior(start.theta, np.full(model.n_dofs, np.inf), 0.003))
+    assert plain.pose.theta[elbow] == pytest.approx(np.radians(60), abs=np.radians(2))
+    assert abs(held.pose.theta[elbow]) < np.radians(5)
+    assert np.array_equal(free.pose.theta, plain.pose.theta)
+    with pytest.raises(ValueError, match="pose prior mean and sigma lengths"):
+        fit(model, target, start, prior=PosePrior(np.zeros(3), np.ones(3), 0.003))
+
+
 @pytest.fixture(scope="module")
 def short_sequence(tmp_path_factory):
     out = tmp_path_factory.mktemp("track") / "seq"

@@ -262,11 +262,14 @@ def fit(
     groups: list[list[int]],
     options: FitOptions,
     model_points: list[int] | None = None,
+    prior: tuple[list[float], list[float], float] | None = None,
 ) -> tuple[Pose, dict[str, float]]:
     """Robust articulated ICP from a starting pose; ``groups`` are the DOF indices of each
-    hierarchical stage after the root. Returns the fitted pose and its statistics
-    (iterations, rounds, energy, inlier_fraction, mean_residual, coverage,
-    mean_reverse_residual, sigma)."""
+    hierarchical stage after the root; ``prior``: ``(mean, sigma, prior_distance)`` of a
+    Gaussian prior on the joint angles (radians, one per DOF, ``inf`` = none), one
+    standard deviation worth ``prior_distance`` metres of every pair. Returns the fitted
+    pose and its statistics (iterations, rounds, energy (the data's), inlier_fraction,
+    mean_residual, coverage, mean_reverse_residual, sigma)."""
 
 @final
 class Shape:

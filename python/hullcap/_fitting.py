@@ -13,7 +13,7 @@ from hullcap._engine import FitOptions
 from hullcap._mesh import Surface
 from hullcap.errors import FitError
 
-__all__ = ["FitOptions", "FitResult", "PoseParameters", "fit", "make_target", "quality", "yaw_rotation"]
+__all__ = ["FitOptions", "FitResult", "PoseParameters", "PosePrior", "fit", "make_target", "quality", "yaw_rotation"]
 
 
 def yaw_rotation(angle: float) -> np.ndarray:
@@ -75,6 +75,28 @@ class FitResult:
     link_counts: np.ndarray
 
 
+@dataclass(frozen=True)
+class PosePrior:
+    """A Gaussian prior on a fit's joint angles, added to its energy (the engine's
+    ``PosePrior``): ½·κ·Σ_d ((θ_d − mean_d) / sigma_d)² with κ = N·prior_distance² for N
+    pairs, so that one `sigma` costs as much as every pair lying `prior_distance` further
+    off.
+
+    Attributes:
+        mean: (D,) joint angles, radians.
+        sigma: (D,) radians, positive; ``inf`` leaves that DOF free.
+        prior_distance: metres.
+    """
+
+    mean: np.ndarray
+    sigma: np.ndarray
+    prior_distance: float
+
+    def engine(self) -> tuple[list[float], list[float], float]:
+        return (np.asarray(self.mean, float).tolist(), np.asarray(self.sigma, float).tolist(),
+                float(self.prior_distance))
+
+
 def quality(stats) -> float:
     """How much of the hull a fit explains both ways, ½(inlier fraction + coverage), of a
     :class:`FitResult` or of the engine's statistics (a dict); 1 = every model point and
@@ -98,7 +120,7 @@ def make_target(surface: Surface, normal_weight: float | None = DEFAULT_NORMAL_W
 
 
 def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions | None = None,
-        model_points=None) -> FitResult:
+        model_points=None, prior: PosePrior | None = None) -> FitResult:
     """Fit `model` to `target` from `initial` by robust articulated ICP.
 
     Args:
@@ -110,6 +132,8 @@ def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions |
             weight, schedule); default ``FitOptions()``.
         model_points: indices of the model vertices that seek partners (default: about
             ``options.model_points`` spread over the mesh).
+        prior: a :class:`PosePrior` on the joint angles (default: none, the paper's
+            energy).
 
     Returns:
         A :class:`FitResult`.
@@ -123,5 +147,6 @@ def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions |
     points = None if model_points is None else np.asarray(model_points, np.int64).tolist()
     groups = [list(g) for g in model.link_model.hierarchy]
     (th, R, t), stats = _engine.fit(model._rig, target, theta.tolist(), np.asarray(initial.root_rotation, float),
-                                    np.asarray(initial.root_translation, float), groups, options, points)
+                                    np.asarray(initial.root_translation, float), groups, options, points,
+                                    None if prior is None else prior.engine())
     return FitResult(PoseParameters(th, R, t), **stats)

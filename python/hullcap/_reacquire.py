@@ -13,7 +13,7 @@ starts from the hull instead:
    limits, the rest of the body held), scored, and the best sample fitted when it explains
    more of the hull.
 
-One local minimum needs no search, only a second start (:meth:`PoseSearch.shoulder_girdle`):
+One local minimum needs no search, only a second start (:meth:`PoseSearch.girdle_start`):
 an arm raised above the shoulder can be reached by the shoulder joint alone or with the
 shoulder girdle (the clavicle) lifted as well. Both put the arm along the same line, and
 the hull cannot tell them apart along a straight arm; but only the second lifts the
@@ -69,7 +69,7 @@ class SearchOptions:
         recent: recent good poses taken into the library (the newest, and others spaced
             back over about a second).
         girdle_share: the part of an arm's elevation above the horizontal that the shoulder
-            girdle (the clavicle's elevation) takes in :meth:`PoseSearch.shoulder_girdle`'s
+            girdle (the clavicle's elevation) takes in :meth:`PoseSearch.girdle_start`'s
             start: 1/3, the scapulohumeral rhythm (above the first 30° of elevation the
             shoulder joint turns 2° for each degree of the girdle; Inman, Saunders and
             Abbott 1944). 0 turns that start off.
@@ -129,26 +129,23 @@ class PoseSearch:
         self._chains = [np.flatnonzero(np.isin(dof_links, links)) for links in chain_links(model)]
         self._girdle = _girdle_dofs(model)
 
-    def shoulder_girdle(self, target, fitted: FitResult) -> FitResult | None:
-        """A fit from `fitted` with each raised arm's elevation shared between the shoulder
-        and the girdle as ``options.girdle_share`` says, when the girdle of a raised arm
-        lies more than ``options.girdle_margin`` below that share; ``None`` when no arm
-        does (or the model has no clavicles). The caller keeps the better of the two: the
+    def girdle_start(self, pose: PoseParameters) -> PoseParameters | None:
+        """`pose` with each raised arm's elevation shared between the shoulder and the
+        girdle as ``options.girdle_share`` says, when the girdle of a raised arm lies more
+        than ``options.girdle_margin`` below that share; ``None`` when no arm does (or the
+        model has no clavicles). The caller fits from it and keeps the better fit: the
         data decide, the rhythm only says where to look (see the module documentation)."""
         share = self.options.girdle_share
         if share == 0 or not self._girdle:
             return None
-        theta = np.array(fitted.pose.theta, float)
+        theta = np.array(pose.theta, float)
         moved = False
         for clavicle, shoulder in self._girdle:
             total = theta[clavicle] + theta[shoulder]  # both turn the arm about the same axis at rest
             if total > 0 and theta[clavicle] < share * total - self.options.girdle_margin:
                 theta[clavicle], theta[shoulder] = share * total, (1 - share) * total
                 moved = True
-        if not moved:
-            return None
-        start = PoseParameters(self.model.clamp(theta), fitted.pose.root_rotation, fitted.pose.root_translation)
-        return fit(self.model, target, start, self.fit_options)
+        return PoseParameters(self.model.clamp(theta), pose.root_rotation, pose.root_translation) if moved else None
 
     def resample(self, target, start: FitResult, chains) -> tuple[FitResult, int]:
         """`start` with each chain of `chains` (indices into :data:`CHAINS`) re-sampled on

@@ -3,7 +3,7 @@
 
 use crate::normal_equations::{Correspondences, Problem, robust_sigma};
 use crate::solve::levenberg_marquardt;
-use crate::{FitOptions, IcpError, Solver, Target};
+use crate::{FitOptions, IcpError, PosePrior, Solver, Target};
 use hullcap_body::{Rig, RootPose, Skeleton, SkeletonPose};
 use hullcap_core::resolve_threads;
 use nalgebra::{DMatrix, DVector, Rotation3, Vector3};
@@ -69,7 +69,24 @@ pub fn fit(
     groups: &[Vec<usize>],
     options: &FitOptions,
 ) -> Result<(Params, FitStats), IcpError> {
+    fit_with_prior(rig, target, model_points, initial, groups, options, None)
+}
+
+/// [`fit`] with a Gaussian prior on the joint angles added to the energy (see
+/// [`PosePrior`]); the statistics report the data's energy alone.
+pub fn fit_with_prior(
+    rig: &Rig,
+    target: &Target,
+    model_points: &[u32],
+    initial: &Params,
+    groups: &[Vec<usize>],
+    options: &FitOptions,
+    prior: Option<&PosePrior>,
+) -> Result<(Params, FitStats), IcpError> {
     check(rig, model_points, initial, groups, options)?;
+    if let Some(prior) = prior {
+        prior.validate(rig.skeleton().n_dofs())?;
+    }
     let n_dofs = rig.skeleton().n_dofs();
     let stages: Vec<Vec<usize>> = if options.hierarchical {
         std::iter::once((0..6).collect())
@@ -89,6 +106,7 @@ pub fn fit(
         },
         model_points,
         options,
+        prior,
         iterations: 0,
     };
     let mut previous = f64::INFINITY;
@@ -246,6 +264,7 @@ struct Fitter<'a> {
     problem: Problem<'a>,
     model_points: &'a [u32],
     options: &'a FitOptions,
+    prior: Option<&'a PosePrior>,
     iterations: usize,
 }
 
@@ -291,12 +310,25 @@ impl Fitter<'_> {
                 self.problem
                     .normal_equations(&pose, &params.root, pairs, sigma, active, None)?;
             let n = active.len();
-            let h = DMatrix::from_row_slice(n, n, &sums.hessian);
-            let g = DVector::from_vec(sums.gradient);
-            let e0 = sums.energy;
+            let mut h = DMatrix::from_row_slice(n, n, &sums.hessian);
+            let mut g = DVector::from_vec(sums.gradient);
+            let mut e0 = sums.energy;
+            let kappa = self.prior.map_or(0.0, |p| p.kappa(pairs.len()));
+            if let Some(prior) = self.prior {
+                for (k, &a) in active.iter().enumerate().filter(|(_, a)| **a >= 6) {
+                    let c = prior.curvature(a - 6, kappa);
+                    h[(k, k)] += c;
+                    g[k] += c * (params.theta[a - 6] - prior.mean[a - 6]);
+                }
+                e0 += prior.energy(&params.theta, kappa);
+            }
             let energy_at = |candidate: &Params| -> Result<f64, IcpError> {
                 let pose = self.problem.rig.skeleton().forward(&candidate.theta)?;
-                self.problem.energy(&pose, &candidate.root, pairs, sigma)
+                let data = self.problem.energy(&pose, &candidate.root, pairs, sigma)?;
+                Ok(data
+                    + self
+                        .prior
+                        .map_or(0.0, |p| p.energy(&candidate.theta, kappa)))
             };
             let accepted = match self.options.solver {
                 Solver::LevenbergMarquardt => {
@@ -562,6 +594,83 @@ mod tests {
             one_sided > 0.1,
             "one-sided: {one_sided} rad off (the test no longer tests anything)"
         );
+    }
+
+    /// A prior with τ = ∞ everywhere changes nothing; a stiff one on the last joint keeps
+    /// that joint where the prior says (the others come near the truth, making up for it
+    /// a little); a prior of the wrong length is refused.
+    #[test]
+    fn a_pose_prior_holds_what_it_is_asked_to_hold() {
+        let rig = tube();
+        let target = target_at(&rig, &truth());
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).collect();
+        let groups = vec![vec![0, 1], vec![2]];
+        let options = FitOptions {
+            rounds: 50,
+            iterations: 20,
+            tolerance: 1e-6,
+            ..FitOptions::default()
+        };
+        let plain = fit(&rig, &target, &points, &start(), &groups, &options).unwrap();
+        let free = PosePrior {
+            mean: vec![0.0; 3],
+            sigma: vec![f64::INFINITY; 3],
+            prior_distance: 0.003,
+        };
+        let same = fit_with_prior(
+            &rig,
+            &target,
+            &points,
+            &start(),
+            &groups,
+            &options,
+            Some(&free),
+        )
+        .unwrap();
+        assert_eq!(same, plain);
+        let held = PosePrior {
+            mean: vec![0.0, 0.0, start().theta[2]],
+            sigma: vec![f64::INFINITY, f64::INFINITY, 1e-3],
+            prior_distance: 0.003,
+        };
+        let (got, _) = fit_with_prior(
+            &rig,
+            &target,
+            &points,
+            &start(),
+            &groups,
+            &options,
+            Some(&held),
+        )
+        .unwrap();
+        assert!(
+            (got.theta[2] - start().theta[2]).abs() < 0.01,
+            "{:?}",
+            got.theta
+        );
+        assert!((plain.0.theta[2] - truth().theta[2]).abs() < 0.01);
+        assert!(
+            (got.theta[0] - truth().theta[0]).abs() < 0.1,
+            "{:?}",
+            got.theta
+        );
+        let short = PosePrior {
+            mean: vec![0.0; 2],
+            sigma: vec![1.0; 2],
+            prior_distance: 0.003,
+        };
+        assert!(matches!(
+            fit_with_prior(
+                &rig,
+                &target,
+                &points,
+                &start(),
+                &groups,
+                &options,
+                Some(&short)
+            ),
+            Err(IcpError::BadParameter { .. })
+        ));
     }
 
     #[test]

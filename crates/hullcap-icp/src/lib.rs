@@ -18,14 +18,16 @@ mod error;
 mod fit;
 mod normal_equations;
 mod options;
+mod pose_prior;
 mod shape_fit;
 mod solve;
 mod target;
 
 pub use error::IcpError;
-pub use fit::{FitStats, LinkCounts, Params, evaluate_poses, fit};
+pub use fit::{FitStats, LinkCounts, Params, evaluate_poses, fit, fit_with_prior};
 pub use normal_equations::spread;
 pub use options::{FitOptions, Residual, Solver};
+pub use pose_prior::PosePrior;
 pub use shape_fit::{ShapeFit, ShapePrior, fit_shape};
 pub use target::Target;
 

@@ -5,7 +5,7 @@ use crate::body::{Rig, Shape, root_pose};
 use crate::call::ArrayError;
 use crate::call::detached;
 use crate::options::FitOptions;
-use hullcap_icp::{FitStats, Params, ShapePrior, Target as EngineTarget};
+use hullcap_icp::{FitStats, Params, PosePrior, ShapePrior, Target as EngineTarget};
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -121,7 +121,8 @@ fn dof_groups(groups: Vec<Vec<i64>>) -> PyResult<Vec<Vec<usize>>> {
 
 /// Fits a rig to a target; see `hullcap._engine.pyi`.
 #[pyfunction]
-#[pyo3(signature = (rig, target, theta, root_rotation, root_translation, groups, options, model_points=None))]
+#[pyo3(signature = (rig, target, theta, root_rotation, root_translation, groups, options, model_points=None,
+                    prior=None))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fit<'py>(
     py: Python<'py>,
@@ -133,15 +134,29 @@ pub(crate) fn fit<'py>(
     groups: Vec<Vec<i64>>,
     options: PyRef<'py, FitOptions>,
     model_points: Option<Vec<i64>>,
+    prior: Option<(Vec<f64>, Vec<f64>, f64)>,
 ) -> PyResult<(PoseArrays<'py>, Bound<'py, PyDict>)> {
     let engine_options = options.engine()?;
     let points = self::model_points(model_points, rig.rig.n_vertices(), &options)?;
     let groups = dof_groups(groups)?;
     let root = root_pose(Some(root_rotation), Some(root_translation))?;
     let initial = Params { root, theta };
+    let prior = prior.map(|(mean, sigma, prior_distance)| PosePrior {
+        mean,
+        sigma,
+        prior_distance,
+    });
     let (rig, target) = (&rig.rig, &target.target);
     let (got, stats) = detached(py, || {
-        hullcap_icp::fit(rig, target, &points, &initial, &groups, &engine_options)
+        hullcap_icp::fit_with_prior(
+            rig,
+            target,
+            &points,
+            &initial,
+            &groups,
+            &engine_options,
+            prior.as_ref(),
+        )
     })?;
     Ok((pose_arrays(py, &got)?, stats_dict(py, &stats)?))
 }
