@@ -55,7 +55,7 @@ from hullcap._render import render_depth
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
-from hullcap._subject import SubjectOptions, build_subject, place_model
+from hullcap._subject import SubjectOptions, bent_frames, build_subject, place_model, search_centres
 from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -124,7 +124,7 @@ class TrackerOptions:
             it folded. With 30° such a fold costs as much as every pair lying 13 mm
             further off, and a change of 30° (a fast punch's elbow between frames at 30
             frames/s) 3 mm. Off by default (``None``, the paper's energy): over the
-            development set it moved MPJPE by −1.4 to +1.3 mm, 0.2 mm worse on average
+            development set it moved MPJPE by −1.4 to +1.4 mm, 0.25 mm worse on average
             (docs/accuracy.md); the fold it guards against came once, in one run.
         motion_prior_distance: metres of pair distance one `motion_sigma` is worth.
         read_ahead: frames decoded and put through the background test on a second
@@ -456,7 +456,9 @@ class Tracker:
 
     def _refine(self, subject, first: int, n: int, show_progress: bool):
         """Track the first seconds with `subject`, fit its proportions and joint centres
-        over frames of them, and return the refined model with its pose at `first`."""
+        over frames of them, place the hinges' centres from the frames where they bend
+        most (:func:`hullcap._subject.search_centres`), and return the refined model with
+        its pose at `first`."""
         last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
         state = _State(subject.model, self.options, subject.fit)
@@ -471,7 +473,16 @@ class Tracker:
             self.learn_colours(f, subject.model, pose, fresh=k == 0)
         hulls = [self.hull(f, (subject.model, pose)) for f, pose in zip(picks, poses)]
         refined = build_subject(hulls, poses=poses, options=self.options.subject)
-        return refined.model, first, refined.fit
+        model, moved = refined.model, False
+        for joint, axis in self.options.subject.centre_search:
+            frames = [good[i] for i in bent_frames(model, window.theta[good], joint, self.options.subject)]
+            targets = [make_target(self.hull(f, (subject.model, window.pose(f)))) for f in frames]
+            model, move = search_centres(model, joint, axis, targets, [window.pose(f) for f in frames],
+                                         self.options.subject)
+            moved |= move != 0
+        if not moved:
+            return model, first, refined.fit
+        return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
 
     def _track(self, state: _State, result: TrackingResult, frame: int) -> None:
         """Fit one frame, judge it, search when needed, and record it. Its silhouettes are
