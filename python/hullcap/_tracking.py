@@ -30,7 +30,6 @@ every output is written, lets an interrupted run resume where it stopped.
 from __future__ import annotations
 
 import io
-import math
 import time
 import warnings
 import zipfile
