@@ -351,6 +351,7 @@ impl Problem<'_> {
                 let mut shape_row = vec![[0.0; 3]; n_shape];
                 let mut scratch = vec![Vector3::zeros(); n_shape];
                 let mut j = vec![[0.0; 3]; n];
+                let mut moving = Vec::with_capacity(n);
                 for p in share {
                     let (i, t) = (p.vertex as usize, p.target as usize);
                     let v = self.world_vertex(pose, root, i);
@@ -380,9 +381,15 @@ impl Problem<'_> {
                             }
                         };
                     }
-                    for (a, ja) in j.iter().enumerate() {
+                    // Only the parameters that move this vertex (its own links' chains and
+                    // the root) have non-zero columns; the others would add exact zeros.
+                    moving.clear();
+                    moving.extend((0..n).filter(|&a| j[a] != [0.0; 3]));
+                    for (x, &a) in moving.iter().enumerate() {
+                        let ja = &j[a];
                         sums.gradient[a] += w * (0..m).map(|k| ja[k] * r[k]).sum::<f64>();
-                        for (b, jb) in j.iter().enumerate().skip(a) {
+                        for &b in &moving[x..] {
+                            let jb = &j[b];
                             sums.hessian[a * n + b] +=
                                 w * (0..m).map(|k| ja[k] * jb[k]).sum::<f64>();
                         }
