@@ -224,6 +224,31 @@ def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tol
     assert sorted(map(tuple, got)) == sorted(map(tuple, brute))
 
 
+@pytest.mark.parametrize("sigma", [0.3, 0.7, 1.0])
+def test_marching_cubes_over_the_surface_cells_alone_gives_the_whole_box_triangles(sigma, rng):
+    """Against marching cubes over every cell: a ball, random blobs (some cut by the box's
+    faces), a wire one voxel thin and a rod."""
+    from scipy import ndimage
+    from skimage.measure import marching_cubes
+
+    from hullcap._hull import _surface_cells
+
+    shape = (60, 56, 64)
+    noise = ndimage.gaussian_filter(rng.random(shape), 3.0)
+    occupancy = noise > np.quantile(noise, 0.97)
+    occupancy |= np.linalg.norm(np.indices(shape) - np.array([30, 28, 32])[:, None, None, None], axis=0) < 16
+    occupancy[5, 3:30, 20] = True
+    occupancy[50:53, 40:43, 3:60] = True
+    field = ndimage.gaussian_filter(occupancy.astype(np.float32), sigma, mode="constant", truncate=3.0)
+    cells = _surface_cells(field)
+    assert cells.mean() < 0.5
+    whole = marching_cubes(field, 0.5, gradient_direction="ascent")
+    masked = marching_cubes(field, 0.5, gradient_direction="ascent", mask=cells)
+    assert len(whole[0]) > 1000
+    for a, b in zip(whole, masked):
+        np.testing.assert_array_equal(a, b)
+
+
 def test_hull_of_a_box_contains_it_and_hugs_its_faces():
     cams = ring(8, radius=3.0)
     lo, hi, voxel = np.array([-0.2, -0.15, 0.6]), np.array([0.25, 0.15, 1.5]), 0.01

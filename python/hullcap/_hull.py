@@ -224,10 +224,31 @@ def _mesh(occupancy, origin, h, smooth) -> Surface:
         field = ndimage.gaussian_filter(field, smooth, mode="constant", truncate=3.0)
     # The field is high inside; with "ascent" scikit-image winds the triangles
     # counter-clockwise seen from outside and its normals point outwards (tested).
-    verts, faces, normals, _ = marching_cubes(field, 0.5, spacing=(h, h, h), gradient_direction="ascent")
+    cells = _surface_cells(field) if smooth > 0 else None
+    verts, faces, normals, _ = marching_cubes(field, 0.5, spacing=(h, h, h), gradient_direction="ascent", mask=cells)
     vertices = verts + origin + 0.5 * h
     n = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
     return Surface(vertices.astype(np.float64), faces.astype(np.int64), n.astype(np.float64))
+
+
+def _surface_cells(field: np.ndarray) -> np.ndarray:
+    """The cells (indexed by their first corner) that can hold the 0.5 level of an
+    occupancy smoothed by a Gaussian (cut at 3σ, as `_mesh` does): those with a corner
+    whose value is neither exactly 0 nor the field's maximum. A cell with every corner 0
+    or at the maximum is not crossed: a corner at exactly 0 has no occupied voxel in its
+    kernel, so each of its neighbours sees occupied voxels only in the outermost layer
+    of its own kernel along some axis, which weighs 0.057 in all at σ = 0.7 voxel (at
+    most about 0.06 for any σ). Marching cubes visiting these cells alone gives the same
+    triangles in the same order.
+    """
+    partial = np.pad((field != 0) & (field != field.max()), ((0, 1),) * 3)  # the last layers' cells too
+    nx, ny, nz = field.shape
+    cells = np.zeros(field.shape, bool)
+    for dx in (0, 1):
+        for dy in (0, 1):
+            for dz in (0, 1):
+                cells |= partial[dx:dx + nx, dy:dy + ny, dz:dz + nz]
+    return cells
 
 
 def check_bounds(bounds) -> tuple[np.ndarray, np.ndarray]:
