@@ -128,3 +128,6 @@ def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
     assert quality(girdle) > quality(plain) + 0.02
     assert shoulder_error(girdle) < 0.02
     assert PoseSearch(model, options).girdle_start(girdle.pose) is None  # in rhythm: nothing to try
+    search = PoseSearch(model, options)
+    assert search.same_arm_lines(plain.pose, girdle.pose)  # the same arms, reached another way
+    assert not search.same_arm_lines(plain.pose, raised(0, 25))  # arms lowered 60°: the search's to find

@@ -65,6 +65,39 @@ def test_a_pose_prior_holds_a_joint_the_mesh_would_move(model):
         fit(model, target, start, prior=PosePrior(np.zeros(3), np.ones(3), 0.003))
 
 
+def test_a_fit_a_search_confirmed_is_the_bar_until_the_hull_is_whole_again(model):
+    """A hull that lost the left arm (as camouflage does): the fit fails the reference of
+    whole frames; once the search found nothing better (decide keeps the tracked fit),
+    a fit as good passes without a search, one that also lost the right arm does not,
+    and a whole frame lifts the bar."""
+    from hullcap._fitting import make_target
+    from hullcap._results import GOOD
+    from hullcap._tracking import _State
+
+    root = np.array([0.0, 0.0, model.rest_root_height])
+    posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
+    index, weight = model.skin
+    owner = np.array(model.link_model.names)[index[np.arange(len(index)), weight.argmax(1)]]
+
+    def hull_without(*links):
+        keep = ~np.isin(owner, links)
+        return make_target(Surface(posed.vertices[keep], model.faces[:0], posed.normals[keep]))
+
+    options = TrackerOptions()
+    start = PoseParameters(np.zeros(model.n_dofs), np.eye(3), root)
+    whole, one_arm, two_arms = (fit(model, hull_without(*links), start, options.fit) for links in
+                                [(), ("l_upper_arm", "l_forearm"),
+                                 ("l_upper_arm", "l_forearm", "r_upper_arm", "r_forearm")])
+    state = _State(model, options, whole)
+    assert not state.good(one_arm) and not state.good(two_arms)
+    assert state.decide(one_arm, one_arm) == (one_arm, GOOD)
+    state.remember_fit(one_arm)
+    assert state.good(one_arm) and not state.passes_reference(one_arm)
+    assert not state.good(two_arms)
+    state.remember_fit(whole)
+    assert state.confirmed is None and not state.good(one_arm)
+
+
 @pytest.fixture(scope="module")
 def short_sequence(tmp_path_factory):
     out = tmp_path_factory.mktemp("track") / "seq"
@@ -84,6 +117,12 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     pose = np.load(tmp_path / "out" / "pose.npz")
     assert pose["theta"].shape == (20, 29) and not pose["failed"].any()
     assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 29
+    # The same subject tracked again with quick fits: as close, for fewer iterations.
+    quick = FitOptions(hierarchical=False, iterations=15, tolerance=3e-4, reverse_weight=1.0)
+    again = Tracker(seq, model=BodyModel.load(tmp_path / "out" / "model"), options=TrackerOptions(quick_fit=quick))
+    fast = again.run(tmp_path / "quick", show_progress=False)
+    assert accuracy(fast, short_sequence).mean_mm < 25
+    assert fast.iterations.sum() < 0.7 * result.iterations.sum()
 
 
 def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, tmp_path):
