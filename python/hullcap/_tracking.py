@@ -86,7 +86,7 @@ class TrackerOptions:
         fit: the per-frame fit (two-sided by default; ``reverse_weight=0`` is the paper's
             one-sided energy), hierarchical as in the paper: root, then joint groups from
             the torso outwards, twice, then all together. The search and the subject's
-            model use it, and so does tracking when `quick_fit` is not enough.
+            model use it, and so does tracking unless `quick_fit` is set.
         quick_fit: when set, the fit from each start (the prediction, the last pose, the
             girdle start) instead of `fit`; for speed, every parameter at once:
             ``FitOptions(hierarchical=False, iterations=15, tolerance=3e-4,
