@@ -533,7 +533,7 @@ class Tracker:
         target = make_target(surface)
         best, iterations = None, 0
         options = state.options
-        first = options.quick_fit or options.fit
+        first = options.fit if options.quick_fit is None else options.quick_fit
         for start in starts:
             fitted = self._fit_from(state, target, start, first)
             iterations += fitted.iterations
@@ -668,8 +668,13 @@ class _State:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a chain never judged: all NaN
             reference = np.nanmedian(np.array(self.chain_reference), axis=0)
+        return self._chains_below(fitted, reference, self.options.chain_margin)
+
+    def _chains_below(self, fitted: FitResult, reference: np.ndarray, margin: float) -> list[int]:
+        """The limb chains of `fitted` whose quality lies more than `margin` below
+        `reference` (per chain); a chain not judged (NaN) on either side is not below."""
         q = chain_quality(fitted.link_counts, self.chains)
-        return [c for c in self.limbs if q[c] < reference[c] - self.options.chain_margin]
+        return [c for c in self.limbs if q[c] < reference[c] - margin]
 
     def decide(self, tracked: FitResult | None, found: FitResult) -> tuple[FitResult, int]:
         """The fit that stands for a frame whose tracked fit did not pass, and its status,
@@ -701,10 +706,8 @@ class _State:
             return False
         bar, chains = self.confirmed
         margin = self.options.recheck_margin
-        q = chain_quality(fitted.link_counts, self.chains)[self.limbs]
-        with np.errstate(invalid="ignore"):
-            chains_hold = not np.any(q < chains[self.limbs] - margin)  # a chain not judged (NaN) holds
-        return quality(fitted) >= max(self.options.min_quality, bar - margin) and chains_hold
+        return quality(fitted) >= max(self.options.min_quality, bar - margin) and not self._chains_below(
+            fitted, chains, margin)
 
     def recent(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
         """Good poses before `frame`, newest first, spaced back over about a second."""
