@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy import ndimage
 from skimage.measure import marching_cubes
 
 from hullcap._cameras import Cameras
@@ -59,10 +58,10 @@ def _boxed_signed_distance(mask) -> np.ndarray:
     if w == 0:
         return np.full((H, W), -_FAR, np.float32)
     x0, y0, x1, y1 = max(0, x - 1), max(0, y - 1), min(W, x + w + 1), min(H, y + h + 1)
-    rows, cols = np.arange(H), np.arange(W)
-    out = np.maximum.outer(np.maximum(np.maximum(y0 - rows, rows - (y1 - 1)), 0),
-                           np.maximum(np.maximum(x0 - cols, cols - (x1 - 1)), 0))
-    signed = np.negative(out, dtype=np.float32)
+    rows, cols = np.arange(H, dtype=np.float32), np.arange(W, dtype=np.float32)
+    below_rows = np.minimum(np.minimum(rows - y0, (y1 - 1) - rows), 0)  # minus each row's distance to the box
+    below_cols = np.minimum(np.minimum(cols - x0, (x1 - 1) - cols), 0)
+    signed = np.minimum(below_rows[:, None], below_cols[None, :])
     signed[y0:y1, x0:x1] = signed_distance(inside[y0:y1, x0:x1])
     return signed
 
@@ -219,9 +218,7 @@ def _carve(views, lo, hi, h, report, min_views, tolerance, with_prior):
 
 
 def _mesh(occupancy, origin, h, smooth) -> Surface:
-    field = occupancy.astype(np.float32)
-    if smooth > 0:
-        field = ndimage.gaussian_filter(field, smooth, mode="constant", truncate=3.0)
+    field = _smoothed(occupancy, smooth) if smooth > 0 else occupancy.astype(np.float32)
     # The field is high inside; with "ascent" scikit-image winds the triangles
     # counter-clockwise seen from outside and its normals point outwards (tested).
     cells = _surface_cells(field) if smooth > 0 else None
@@ -231,17 +228,39 @@ def _mesh(occupancy, origin, h, smooth) -> Surface:
     return Surface(vertices.astype(np.float64), faces.astype(np.int64), n.astype(np.float64))
 
 
+def _smoothed(occupancy: np.ndarray, sigma: float) -> np.ndarray:
+    """The occupancy (float32) convolved with a Gaussian of `sigma` voxels cut at 3σ,
+    zero beyond the box: what ``scipy.ndimage.gaussian_filter(..., mode="constant",
+    truncate=3.0)`` gives (tested), in one OpenCV row filter per axis, about four times
+    faster than SciPy's filter on a hull's box."""
+    radius = int(3.0 * sigma + 0.5)
+    x = np.arange(-radius, radius + 1)
+    kernel = np.exp(-0.5 * (x / sigma) ** 2)
+    kernel = (kernel / kernel.sum()).astype(np.float32)
+    one = np.ones(1, np.float32)
+    nx, ny, nz = occupancy.shape
+    border = cv2.BORDER_CONSTANT
+    along_z = cv2.sepFilter2D(occupancy.astype(np.float32).reshape(nx * ny, nz), cv2.CV_32F, kernel, one,
+                              borderType=border).reshape(nx, ny, nz)
+    along_y = np.empty_like(along_z)
+    for i in range(nx):  # the x-slices one by one: a (x·y, z) view would mix neighbouring slices' rows
+        cv2.sepFilter2D(along_z[i], cv2.CV_32F, one, kernel, dst=along_y[i], borderType=border)
+    return cv2.sepFilter2D(along_y.reshape(nx, ny * nz), cv2.CV_32F, one, kernel,
+                           borderType=border).reshape(nx, ny, nz)
+
+
 def _surface_cells(field: np.ndarray) -> np.ndarray:
-    """The cells (indexed by their first corner) that can hold the 0.5 level of an
-    occupancy smoothed by a Gaussian (cut at 3σ, as `_mesh` does): those with a corner
-    whose value is neither exactly 0 nor the field's maximum. A cell with every corner 0
-    or at the maximum is not crossed: a corner at exactly 0 has no occupied voxel in its
-    kernel, so each of its neighbours sees occupied voxels only in the outermost layer
-    of its own kernel along some axis, which weighs 0.057 in all at σ = 0.7 voxel (at
-    most about 0.06 for any σ). Marching cubes visiting these cells alone gives the same
-    triangles in the same order.
+    """The cells that can hold the 0.5 level of an occupancy smoothed by a Gaussian (cut
+    at 3σ, as `_mesh` does), as scikit-image's ``marching_cubes(mask=...)`` reads them:
+    a cell is marked at its last corner (the one with the highest indices). They are the
+    cells with a corner whose value is neither exactly 0 nor the field's maximum. A cell
+    with every corner 0 or at the maximum is not crossed: a corner at exactly 0 has no
+    occupied voxel in its kernel, so each of its neighbours sees occupied voxels only in
+    the outermost layer of its own kernel along some axis, which weighs 0.057 in all at
+    σ = 0.7 voxel (at most about 0.06 for any σ). Marching cubes visiting these cells
+    alone gives the same triangles in the same order (tested).
     """
-    partial = np.pad((field != 0) & (field != field.max()), ((0, 1),) * 3)  # the last layers' cells too
+    partial = np.pad((field != 0) & (field != field.max()), ((1, 0),) * 3)
     nx, ny, nz = field.shape
     cells = np.zeros(field.shape, bool)
     for dx in (0, 1):

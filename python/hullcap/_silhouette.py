@@ -212,7 +212,7 @@ def signed_distance(mask: np.ndarray) -> np.ndarray:
     inside = (np.asarray(mask) > 0).astype(np.uint8)
     d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
     d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
-    return np.where(inside > 0, d_in, -d_out).astype(np.float32)
+    return np.subtract(d_in, d_out, dtype=np.float32)  # each is 0 where the other is not
 
 
 def _stack(backgrounds) -> np.ndarray:
