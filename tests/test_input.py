@@ -33,32 +33,64 @@ def test_projection_matches_opencv_and_back_projection_inverts_it(rng):
     assert np.allclose(z, (X - origin) @ cam.R[2])
 
 
-def test_the_engine_samples_images_where_the_numpy_projection_lands(rng):
-    """The hull's lookups (one engine pass) against projecting with NumPy and indexing:
-    distortion, points behind the camera and outside the image included."""
-    from hullcap._engine import sample_at_projections
+def _numpy_verdicts(X, radius, views, tolerance, min_views):
+    """The carving rule of `classify_cells`, written out in NumPy with the cameras'
+    own projection."""
+    left_out, seen = np.zeros(len(X), int), np.zeros(len(X), int)
+    all_inside, prior_out = np.ones(len(X), bool), np.zeros(len(X), bool)
+    for cam, focal, signed, prior in views:
+        px, z = cam.project(X)
+        with np.errstate(invalid="ignore"):  # pixels of points at the camera's centre plane
+            u, v = np.rint(px[:, 0]).astype(np.int64), np.rint(px[:, 1]).astype(np.int64)
+        ok = (z > 1e-6) & (u >= 0) & (u < signed.shape[1]) & (v >= 0) & (v < signed.shape[0])
+        d, p = np.full(len(X), np.inf), np.full(len(X), np.inf)
+        d[ok] = signed[v[ok], u[ok]]
+        if prior is not None:
+            p[ok] = prior[v[ok], u[ok]]
+        reach = np.where(ok, focal * radius / np.where(ok, z, 1.0), 0.0)
+        left_out += d < -reach
+        seen += ok
+        all_inside &= ok & (d > reach)
+        prior_out |= p < -reach
+    out = (left_out > tolerance) | ((left_out > 0) & prior_out)
+    if radius > 0:
+        return np.where(out, 0, np.where(all_inside, 1, 2))
+    return np.where(out | (seen < min_views), 0, 1)
+
+
+def test_the_engine_classifies_cells_as_the_numpy_projection_says(rng):
+    """The hull's carving test (one engine pass over the cells) against the same rule in
+    NumPy: distortion, points behind a camera and outside its image, the tolerance,
+    priors, and cells' image radii included."""
+    from hullcap._engine import classify_cells
     from hullcap.errors import ArrayError
 
-    cam = distorted_camera()
-    X = np.concatenate([rng.uniform(-1.5, 1.5, (20_000, 3)) + (0, 0, 1), cam.centre + rng.normal(0, 0.5, (500, 3))])
-    images = [rng.normal(size=(480, 640)).astype(np.float32), rng.normal(size=(480, 640)).astype(np.float32)]
-    values, depth = sample_at_projections(X, cam.K, cam.dist, cam.R, cam.t, images, threads=2)
-    px, z = cam.project(X)
-    with np.errstate(invalid="ignore"):  # pixels of points at the camera's centre plane
-        u, v = np.rint(px[:, 0]).astype(np.int64), np.rint(px[:, 1]).astype(np.int64)
-    ok = (z > 1e-6) & (u >= 0) & (u < 640) & (v >= 0) & (v < 480)
-    assert 0.2 < ok.mean() < 0.95 and (z <= 1e-6).any()
-    for image, got in zip(images, values):
-        want = np.full(len(X), np.inf, np.float32)
-        want[ok] = image[v[ok], u[ok]]
-        assert np.array_equal(got, want)
-    assert np.allclose(depth, np.where(z > 1e-6, z, np.inf), rtol=0, atol=1e-12)
-    with pytest.raises(ArrayError, match=r"images\[1\] is 3×2, images\[0\] 640×480"):
-        sample_at_projections(X, cam.K, cam.dist, cam.R, cam.t, [images[0], np.zeros((2, 3))])
-    with pytest.raises(ArrayError, match="dist must hold 5 numbers"):
-        sample_at_projections(X, cam.K, cam.dist[:4], cam.R, cam.t, images)
-    with pytest.raises(ArrayError, match="images is empty"):
-        sample_at_projections(X, cam.K, cam.dist, cam.R, cam.t, [])
+    cams = [distorted_camera(), *ring(3, radius=2.5, width=320, height_px=240)]
+    X = np.concatenate([rng.uniform(-1.5, 1.5, (20_000, 3)) + (0, 0, 1), cams[0].centre + rng.normal(0, 0.5, (500, 3))])
+    views = []
+    for k, cam in enumerate(cams):
+        shape = (cam.height, cam.width)
+        signed = rng.normal(2.0, 6.0, shape).astype(np.float32)
+        prior = rng.normal(4.0, 6.0, shape).astype(np.float32) if k % 2 else None
+        views.append((cam, float(max(cam.K[0, 0], cam.K[1, 1])), signed, prior))
+    engine_views = [(c.K, c.dist, c.R, c.t, f, s, p) for c, f, s, p in views]
+    counts = set()
+    for radius in (0.0, 0.004, 0.03):
+        for tolerance in (0, 1, 2):
+            got = classify_cells(X, radius, engine_views, tolerance, 3, threads=2)
+            want = _numpy_verdicts(X, radius, views, tolerance, 3)
+            assert got.dtype == np.uint8 and np.array_equal(got, want), (radius, tolerance)
+            counts.add(tuple(np.bincount(got, minlength=3) > 100))
+    assert (True, True, True) in counts and (True, True, False) in counts  # every verdict exercised
+    bad_prior = [engine_views[0][:6] + (np.zeros((2, 3)),), *engine_views[1:]]
+    with pytest.raises(ArrayError, match=r"views\[0\].prior is 3×2, its signed image 640×480"):
+        classify_cells(X, 0.0, bad_prior, 0, 3)
+    with pytest.raises(ArrayError, match=r"views\[1\].dist must hold 5 numbers"):
+        classify_cells(X, 0.0, [engine_views[0], (cams[1].K, cams[1].dist[:4]) + engine_views[1][2:]], 0, 3)
+    with pytest.raises(ArrayError, match=r"views\[0\] must be \(K, dist"):
+        classify_cells(X, 0.0, [engine_views[0][:5]], 0, 3)
+    with pytest.raises(ArrayError, match="radius must be finite"):
+        classify_cells(X, -1.0, engine_views, 0, 3)
 
 
 def test_cameras_json_round_trip_and_validation(tmp_path):
@@ -199,8 +231,10 @@ def test_hull_of_a_sphere_is_tight_where_the_views_constrain_it():
 
 @pytest.mark.parametrize("tolerance, with_prior", [(0, False), (1, False), (1, True)])
 def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tolerance, with_prior):
-    """Against brute force: every voxel of the grid tested in every view, by the sign of
-    the same lookups. One view misses a band of the body, to exercise the tolerance."""
+    """Against brute force: every voxel of the grid tested in every view by its centre
+    (the engine's finest-level test). One view misses a band of the body, to exercise
+    the tolerance."""
+    from hullcap._engine import classify_cells
     from hullcap._hull import HullReport, _carve, _View
 
     cams = ring(6, radius=3.0, width=320, height_px=240)
@@ -211,14 +245,11 @@ def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tol
         masks[0][120:130] = 0
     views = [_View(c, m, p) for c, m, p in zip(cams, masks, priors)]
     lo, hi, h = np.array([-0.8, -0.8, 0.2]), np.array([0.8, 0.8, 1.8]), 0.02
-    origin, occupancy = _carve(views, lo, hi, h, HullReport(), 3, tolerance, with_prior)
+    origin, occupancy = _carve(views, lo, hi, h, HullReport(), 3, tolerance)
     n = np.ceil((hi - lo) / h).astype(int)
     cells = np.stack(np.meshgrid(*map(np.arange, n), indexing="ij"), -1).reshape(-1, 3)
-    missed, seen, in_priors = np.zeros(len(cells), int), np.zeros(len(cells), int), np.ones(len(cells), bool)
-    for view in views:
-        d, p, _ = view.lookup(lo + (cells + 0.5) * h)
-        missed, seen, in_priors = missed + (d < 0), seen + np.isfinite(d), in_priors & (p >= 0)
-    brute = cells[((missed == 0) | ((missed <= tolerance) & in_priors)) & (seen >= 3)]
+    verdict = classify_cells(lo + (cells + 0.5) * h, 0.0, [view.engine for view in views], tolerance, 3)
+    brute = cells[verdict == 1]
     got = np.argwhere(occupancy) + np.rint((origin - lo) / h).astype(int)
     assert len(brute) > 10_000
     assert sorted(map(tuple, got)) == sorted(map(tuple, brute))

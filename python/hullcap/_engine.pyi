@@ -321,28 +321,37 @@ def evaluate(
     correspondences both ways), the poses spread over the threads: how a search ranks
     its candidates."""
 
-def sample_at_projections(
-    points: ArrayLike3,
-    K: npt.ArrayLike,
-    dist: npt.ArrayLike,
-    R: npt.ArrayLike,
-    t: npt.ArrayLike,
-    images: list[npt.ArrayLike],
+def classify_cells(
+    centres: ArrayLike3,
+    radius: float,
+    views: list[tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float,
+                      npt.ArrayLike, npt.ArrayLike | None]],
+    tolerance: int,
+    min_views: int,
     threads: int | None = None,
-) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float64]]:
-    """Images sampled at the projections of world points (the visual hull's lookups).
+) -> npt.NDArray[np.uint8]:
+    """The visual hull's carving test for each cell: 0 out, 1 in, 2 to be split.
+
+    Each centre is projected into each view (distortion included) and the view's signed
+    distance image (pixels, positive inside the silhouette) is read at the nearest pixel
+    (ties to even). A view leaves the cell out when that value is below minus the cell's
+    image radius, ``focal · radius / depth``, and its prior likewise. Views that do not see
+    the centre (behind the camera, depth at most 1e-6 m, or outside the image) neither
+    leave it out nor have it inside. Out: more than `tolerance` views leave it out, or
+    one does and some view's prior leaves it out too. Otherwise, for ``radius > 0``: in
+    when every view has it inside by more than its image radius, else split; for
+    ``radius == 0`` (the finest level, the centre decides): in when at least `min_views`
+    views see it, else out.
 
     Args:
-        points: (N, 3) world points.
-        K, dist, R, t: a camera as :class:`hullcap.Camera` holds it: (3, 3) intrinsics,
-            5 distortion coefficients (k1, k2, p1, p2, k3), (3, 3) rotation and (3,)
-            translation from the world to the camera.
-        images: one or more (height, width) images of the camera (as float32).
+        centres: (N, 3) world points, the cells' centres.
+        radius: the radius (metres) of the sphere around each cell; 0 at the finest level.
+        views: per camera ``(K, dist, R, t, focal, signed, prior)``: the camera as
+            :class:`hullcap.Camera` holds it ((3, 3) intrinsics, 5 distortion coefficients
+            k1, k2, p1, p2, k3, (3, 3) rotation and (3,) translation from the world), the
+            larger focal length in pixels, the (height, width) signed distance image and
+            the prior's (same size) or ``None``.
+        tolerance: how many views may leave a cell out and be overruled.
+        min_views: at the finest level, how many views must see a cell to keep it.
         threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
-
-    Returns:
-        ``(values, depth)``: (len(images), N) float32, each image's value at the pixel
-        nearest the point's projection (ties to even), +inf where the point projects
-        outside the image or lies behind the camera (depth at most 1e-6 m); (N,) float64
-        camera depth, +inf behind the camera.
     """

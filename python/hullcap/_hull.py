@@ -22,7 +22,7 @@ import numpy as np
 from skimage.measure import marching_cubes
 
 from hullcap._cameras import Cameras
-from hullcap._engine import sample_at_projections
+from hullcap._engine import classify_cells
 from hullcap._mesh import Surface
 from hullcap._silhouette import signed_distance
 from hullcap.errors import CalibrationError, HullError
@@ -67,25 +67,13 @@ def _boxed_signed_distance(mask) -> np.ndarray:
 
 
 class _View:
-    """One camera's mask as the carving needs it: signed distance to the silhouette edge
-    (and to the prior's, when one is given)."""
+    """One camera's mask as the carving needs it: the signed distance to the silhouette
+    edge (and to the prior's, when one is given), in the engine's view layout."""
 
     def __init__(self, camera, mask, prior=None):
-        self.camera = camera
-        self.signed = _boxed_signed_distance(mask)
-        self.prior = None if prior is None else _boxed_signed_distance(prior)
-        self.focal = float(max(camera.K[0, 0], camera.K[1, 1]))
-
-    def lookup(self, points):
-        """(signed distance in pixels at each point's projection, the same in the prior
-        (+inf without one), depth); points outside the image or behind the camera get
-        +inf (this view cannot carve them). One engine pass per view: projecting every
-        voxel centre into every view was half the hull's time in NumPy."""
-        cam = self.camera
-        images = [self.signed] if self.prior is None else [self.signed, self.prior]
-        values, depth = sample_at_projections(points, cam.K, cam.dist, cam.R, cam.t, images)
-        prior = values[1] if self.prior is not None else np.full(len(points), np.inf, np.float32)
-        return values[0], prior, depth
+        focal = float(max(camera.K[0, 0], camera.K[1, 1]))
+        prior = None if prior is None else _boxed_signed_distance(prior)
+        self.engine = (camera.K, camera.dist, camera.R, camera.t, focal, _boxed_signed_distance(mask), prior)
 
 
 def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
@@ -149,7 +137,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     lo, hi = check_bounds(bounds) if bounds is not None else capture_volume(cameras)
     t0 = time.perf_counter()
     tolerance = min(tolerance, max(0, len(views) - 4))
-    origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views, tolerance, priors is not None)
+    origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views, tolerance)
     report.carve_seconds = time.perf_counter() - t0
     if not occupancy.any():
         raise HullError(f"the visual hull is empty: the silhouettes agree on no point of the capture volume "
@@ -160,47 +148,32 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     return surface
 
 
-def _carve(views, lo, hi, h, report, min_views, tolerance, with_prior):
+_IN, _SPLIT = 1, 2
+"""The engine's verdicts on a cell (0 is out); see `classify_cells`."""
+
+
+def _carve(views, lo, hi, h, report, min_views, tolerance):
     """``(origin, occupancy)``: a boolean grid of the finest voxels holding the hull, with
     at least two empty voxels all round, and the world position of its voxel (0, 0, 0)'s
-    corner. Up to `tolerance` views may leave a voxel out (inside every prior when
-    `with_prior`)."""
+    corner. Up to `tolerance` views may leave a voxel out (inside every view's prior,
+    where the views have priors)."""
     n_fine = np.maximum(np.ceil((hi - lo) / h).astype(int), 1)
     levels = min(5, max(0, int(np.ceil(np.log2(max(n_fine.max() / 24, 1))))))
     n0 = np.ceil(n_fine / 2**levels).astype(int)
     cells = np.stack(np.meshgrid(*[np.arange(n) for n in n0], indexing="ij"), -1).reshape(-1, 3)
     offsets = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
     blocks = []  # (first fine index (N, 3), side in fine voxels)
+    engine_views = [view.engine for view in views]
     for level in range(levels, -1, -1):
         size = h * 2**level
-        centres = lo + (cells + 0.5) * size
         report.voxels_tested += len(cells)
+        radius = size * np.sqrt(3) / 2 if level else 0.0
+        verdict = classify_cells(lo + (cells + 0.5) * size, radius, engine_views, tolerance,
+                                 min(min_views, len(views)))
+        blocks.append((cells[verdict == _IN] * 2**level, 2**level))
         if level == 0:
-            missed = np.zeros(len(cells), int)
-            seen_by = np.zeros(len(cells), int)
-            prior_in = np.ones(len(cells), bool)
-            for view in views:
-                d, p, _ = view.lookup(centres)
-                missed += d < 0
-                seen_by += np.isfinite(d)
-                prior_in &= p >= 0
-            inside = (missed == 0) | ((missed <= tolerance) & prior_in)
-            inside &= seen_by >= min(min_views, len(views))
-            blocks.append((cells[inside], 1))
             break
-        radius_world = size * np.sqrt(3) / 2
-        all_in = np.ones(len(cells), bool)
-        out_count = np.zeros(len(cells), int)
-        prior_out = np.zeros(len(cells), bool)
-        for view in views:
-            d, p, z = view.lookup(centres)
-            r = view.focal * radius_world / z
-            out_count += d < -r
-            prior_out |= p < -r
-            all_in &= np.isfinite(d) & (d > r)  # unseen: decided at the finest level
-        out = (out_count > tolerance) | ((out_count > 0) & prior_out) if with_prior else out_count > tolerance
-        blocks.append((cells[all_in & ~out] * 2**level, 2**level))
-        boundary = cells[~all_in & ~out]
+        boundary = cells[verdict == _SPLIT]
         cells = (boundary[:, None, :] * 2 + offsets).reshape(-1, 3)
     starts = [b for b, _ in blocks if len(b)]
     if not starts:

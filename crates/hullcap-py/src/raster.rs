@@ -36,65 +36,102 @@ pub(crate) fn rasterize<'py>(
     ))
 }
 
-/// Images sampled at the projections of world points, and the points' depths; see
-/// `hullcap._engine.pyi`.
+/// The carving's verdict per cell (0 out, 1 in, 2 split); see `hullcap._engine.pyi`.
 #[pyfunction]
-#[pyo3(signature = (points, K, dist, R, t, images, threads=None))]
-#[allow(non_snake_case, clippy::too_many_arguments, clippy::type_complexity)]
-pub(crate) fn sample_at_projections<'py>(
+#[pyo3(signature = (centres, radius, views, tolerance, min_views, threads=None))]
+pub(crate) fn classify_cells<'py>(
     py: Python<'py>,
-    points: &Bound<'py, PyAny>,
-    K: &Bound<'py, PyAny>,
-    dist: &Bound<'py, PyAny>,
-    R: &Bound<'py, PyAny>,
-    t: &Bound<'py, PyAny>,
-    images: Vec<Bound<'py, PyAny>>,
+    centres: &Bound<'py, PyAny>,
+    radius: f64,
+    views: Vec<Bound<'py, PyAny>>,
+    tolerance: i64,
+    min_views: i64,
     threads: Option<i64>,
-) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, Bound<'py, PyArray1<f64>>)> {
-    let points = rows3(points, "points")?;
-    let camera = hullcap_raster::Camera {
-        k: matrix3(K, "K")?,
-        dist: exactly(flat_floats(dist, "dist", &[])?, "dist")?,
-        r: matrix3(R, "R")?,
-        t: exactly(flat_floats(t, "t", &[])?, "t")?,
-    };
+) -> PyResult<Bound<'py, PyArray1<u8>>> {
+    let centres = rows3(centres, "centres")?;
+    if !(radius >= 0.0 && radius.is_finite()) {
+        return Err(ArrayError::new_err(format!(
+            "radius must be finite and >= 0, got {radius}"
+        )));
+    }
+    let tolerance = arrays::count(tolerance, "tolerance", 0)?;
+    let min_views = arrays::count(min_views, "min_views", 0)?;
     let threads = arrays::threads(threads)?;
-    let mut shape = None;
-    let mut arrays_f32 = Vec::with_capacity(images.len());
     let np = py.import("numpy")?;
-    for (i, image) in images.iter().enumerate() {
-        let name = format!("images[{i}]");
-        let arr = np
-            .call_method1("ascontiguousarray", (image, "float32"))
-            .map_err(|e| ArrayError::new_err(format!("{name} is not an array of numbers: {e}")))?;
-        let arr: PyReadonlyArray2<'py, f32> = arr
+    let image = |obj: &Bound<'py, PyAny>, name: &str| -> PyResult<PyReadonlyArray2<'py, f32>> {
+        np.call_method1("ascontiguousarray", (obj, "float32"))
+            .map_err(|e| ArrayError::new_err(format!("{name} is not an array of numbers: {e}")))?
             .extract()
-            .map_err(|_| ArrayError::new_err(format!("{name} must be 2-D (height, width)")))?;
-        let (h, w) = (arr.shape()[0], arr.shape()[1]);
-        let (h0, w0) = *shape.get_or_insert((h, w));
-        if (h0, w0) != (h, w) {
+            .map_err(|_| ArrayError::new_err(format!("{name} must be 2-D (height, width)")))
+    };
+    let mut parsed = Vec::with_capacity(views.len());
+    for (i, view) in views.iter().enumerate() {
+        let name = format!("views[{i}]");
+        let (k, dist, r, t, focal, signed, prior): ViewTuple<'py> =
+            view.extract().map_err(|_| {
+                ArrayError::new_err(format!(
+                    "{name} must be (K, dist, R, t, focal, signed, prior or None)"
+                ))
+            })?;
+        let camera = hullcap_raster::Camera {
+            k: matrix3(&k, &format!("{name}.K"))?,
+            dist: exactly(
+                flat_floats(&dist, &format!("{name}.dist"), &[])?,
+                &format!("{name}.dist"),
+            )?,
+            r: matrix3(&r, &format!("{name}.R"))?,
+            t: exactly(
+                flat_floats(&t, &format!("{name}.t"), &[])?,
+                &format!("{name}.t"),
+            )?,
+        };
+        let signed = image(&signed, &format!("{name}.signed"))?;
+        let prior = prior
+            .map(|p| image(&p, &format!("{name}.prior")))
+            .transpose()?;
+        let (h, w) = (signed.shape()[0], signed.shape()[1]);
+        if let Some(p) = prior.as_ref().filter(|p| p.shape() != signed.shape()) {
             return Err(ArrayError::new_err(format!(
-                "{name} is {w}×{h}, images[0] {w0}×{h0}"
+                "{name}.prior is {}×{}, its signed image {w}×{h}",
+                p.shape()[1],
+                p.shape()[0]
             )));
         }
-        arrays_f32.push(arr);
+        parsed.push((camera, w, h, focal, signed, prior));
     }
-    let (h, w) = shape.ok_or_else(|| ArrayError::new_err("images is empty: give at least one"))?;
-    let slices: Vec<&[f32]> = arrays_f32
+    let carve_views: Vec<hullcap_raster::CarveView<'_>> = parsed
         .iter()
-        .map(|a| a.as_slice().unwrap_or(&[]))
+        .map(
+            |(camera, w, h, focal, signed, prior)| hullcap_raster::CarveView {
+                camera: *camera,
+                width: *w,
+                height: *h,
+                signed: signed.as_slice().unwrap_or(&[]),
+                prior: prior.as_ref().map(|p| p.as_slice().unwrap_or(&[])),
+                focal: *focal,
+            },
+        )
         .collect();
-    let p = points.rows();
-    let (values, depth) = detached(py, || {
-        hullcap_raster::sample_at_projections(p, &camera, &slices, w, h, threads)
+    let c = centres.rows();
+    let verdicts = detached(py, || {
+        hullcap_raster::classify_cells(c, radius, &carve_views, tolerance, min_views, threads)
     })?;
-    let n = p.len();
-    let flat: Vec<f32> = values.into_iter().flatten().collect();
-    Ok((
-        PyArray1::from_vec(py, flat).reshape(vec![slices.len(), n])?,
-        PyArray1::from_vec(py, depth),
+    Ok(arrays::vec1(
+        py,
+        verdicts.into_iter().map(|v| v as u8).collect(),
     ))
 }
+
+/// One view as `classify_cells` takes it from Python.
+type ViewTuple<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    f64,
+    Bound<'py, PyAny>,
+    Option<Bound<'py, PyAny>>,
+);
 
 /// `obj` as a 3 × 3 float64 matrix, row-major.
 fn matrix3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 3]> {

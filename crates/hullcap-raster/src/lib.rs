@@ -13,12 +13,13 @@
 //! behind the camera's near plane are skipped, not clipped.
 
 //!
-//! The visual hull (`hullcap._hull`) asks, for every voxel centre and view, the value of the
-//! view's distance image at the centre's projection: [`sample_at_projections`] projects
-//! (with distortion) and looks up in one pass over the points, in parallel.
+//! The visual hull (`hullcap._hull`) carves coarse to fine: [`classify_cells`] projects
+//! each cell's centre into every view (with distortion), reads the view's distance image
+//! there and decides whether the cell is out, in or to be split, in one parallel pass over
+//! the cells.
 
+mod carve;
 mod raster;
-mod sample;
 
+pub use carve::{Camera, CarveView, Verdict, classify_cells};
 pub use raster::{RasterError, Rendered, rasterize};
-pub use sample::{Camera, sample_at_projections};
