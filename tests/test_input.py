@@ -235,7 +235,7 @@ def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tol
     (the engine's finest-level test). One view misses a band of the body, to exercise
     the tolerance."""
     from hullcap._engine import classify_cells
-    from hullcap._hull import HullReport, _carve, _View
+    from hullcap._hull import HullReport, _carve, _carving_view
 
     cams = ring(6, radius=3.0, width=320, height_px=240)
     v, f = capsule_union_mesh([((0, 0, 0.7), (0, 0, 1.3), 0.2), ((0, 0, 1.0), (0.5, 0.1, 1.2), 0.08)], 0.005)
@@ -243,12 +243,12 @@ def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tol
     priors = [m > 0 for m in masks] if with_prior else [None] * len(cams)
     if tolerance:
         masks[0][120:130] = 0
-    views = [_View(c, m, p) for c, m, p in zip(cams, masks, priors)]
+    views = [_carving_view(c, m, p) for c, m, p in zip(cams, masks, priors)]
     lo, hi, h = np.array([-0.8, -0.8, 0.2]), np.array([0.8, 0.8, 1.8]), 0.02
     origin, occupancy = _carve(views, lo, hi, h, HullReport(), 3, tolerance)
     n = np.ceil((hi - lo) / h).astype(int)
     cells = np.stack(np.meshgrid(*map(np.arange, n), indexing="ij"), -1).reshape(-1, 3)
-    verdict = classify_cells(lo + (cells + 0.5) * h, 0.0, [view.engine for view in views], tolerance, 3)
+    verdict = classify_cells(lo + (cells + 0.5) * h, 0.0, views, tolerance, 3)
     brute = cells[verdict == 1]
     got = np.argwhere(occupancy) + np.rint((origin - lo) / h).astype(int)
     assert len(brute) > 10_000

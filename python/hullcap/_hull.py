@@ -66,14 +66,13 @@ def _boxed_signed_distance(mask) -> np.ndarray:
     return signed
 
 
-class _View:
-    """One camera's mask as the carving needs it: the signed distance to the silhouette
-    edge (and to the prior's, when one is given), in the engine's view layout."""
-
-    def __init__(self, camera, mask, prior=None):
-        focal = float(max(camera.K[0, 0], camera.K[1, 1]))
-        prior = None if prior is None else _boxed_signed_distance(prior)
-        self.engine = (camera.K, camera.dist, camera.R, camera.t, focal, _boxed_signed_distance(mask), prior)
+def _carving_view(camera, mask, prior=None) -> tuple:
+    """One camera's mask as the engine's carving test takes it (`classify_cells`): the
+    camera, its larger focal length, and the signed distance to the silhouette's edge
+    and to the prior's (None without one)."""
+    focal = float(max(camera.K[0, 0], camera.K[1, 1]))
+    prior = None if prior is None else _boxed_signed_distance(prior)
+    return camera.K, camera.dist, camera.R, camera.t, focal, _boxed_signed_distance(mask), prior
 
 
 def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
@@ -129,7 +128,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         prior = None if priors is None else np.asarray(priors[i])
         if prior is not None and prior.shape != m.shape:
             raise HullError(f"camera {cam.name!r}: prior is {prior.shape[::-1]} pixels, the mask {m.shape[::-1]}")
-        views.append(_View(cam, m, prior))
+        views.append(_carving_view(cam, m, prior))
     if not views:
         raise HullError("every mask is empty: nothing to carve")
     if report.skipped:
@@ -153,22 +152,21 @@ _IN, _SPLIT = 1, 2
 
 
 def _carve(views, lo, hi, h, report, min_views, tolerance):
-    """``(origin, occupancy)``: a boolean grid of the finest voxels holding the hull, with
-    at least two empty voxels all round, and the world position of its voxel (0, 0, 0)'s
-    corner. Up to `tolerance` views may leave a voxel out (inside every view's prior,
-    where the views have priors)."""
+    """``(origin, occupancy)`` carved from `views` (`_carving_view`s): a boolean grid of
+    the finest voxels holding the hull, with at least two empty voxels all round, and
+    the world position of its voxel (0, 0, 0)'s corner. Up to `tolerance` views may
+    leave a voxel out (inside every view's prior, where the views have priors)."""
     n_fine = np.maximum(np.ceil((hi - lo) / h).astype(int), 1)
     levels = min(5, max(0, int(np.ceil(np.log2(max(n_fine.max() / 24, 1))))))
     n0 = np.ceil(n_fine / 2**levels).astype(int)
     cells = np.stack(np.meshgrid(*[np.arange(n) for n in n0], indexing="ij"), -1).reshape(-1, 3)
     offsets = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
     blocks = []  # (first fine index (N, 3), side in fine voxels)
-    engine_views = [view.engine for view in views]
     for level in range(levels, -1, -1):
         size = h * 2**level
         report.voxels_tested += len(cells)
         radius = size * np.sqrt(3) / 2 if level else 0.0
-        verdict = classify_cells(lo + (cells + 0.5) * size, radius, engine_views, tolerance,
+        verdict = classify_cells(lo + (cells + 0.5) * size, radius, views, tolerance,
                                  min(min_views, len(views)))
         blocks.append((cells[verdict == _IN] * 2**level, 2**level))
         if level == 0:

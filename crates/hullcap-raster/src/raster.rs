@@ -23,7 +23,7 @@ pub enum RasterError {
         /// Height in pixels.
         height: usize,
     },
-    /// An image to sample does not hold `width × height` values (or more than 2^32).
+    /// An image of a view does not hold `width × height` values.
     #[error("image {index} holds {len} values, not {width}×{height}")]
     ImageSize {
         /// Its place in the list.
