@@ -75,15 +75,9 @@ pub(crate) fn classify_cells<'py>(
             })?;
         let camera = hullcap_raster::Camera {
             k: matrix3(&k, &format!("{name}.K"))?,
-            dist: exactly(
-                flat_floats(&dist, &format!("{name}.dist"), &[])?,
-                &format!("{name}.dist"),
-            )?,
+            dist: numbers(&dist, &format!("{name}.dist"), &[])?,
             r: matrix3(&r, &format!("{name}.R"))?,
-            t: exactly(
-                flat_floats(&t, &format!("{name}.t"), &[])?,
-                &format!("{name}.t"),
-            )?,
+            t: numbers(&t, &format!("{name}.t"), &[])?,
         };
         let signed = image(&signed, &format!("{name}.signed"))?;
         let prior = prior
@@ -135,13 +129,19 @@ type ViewTuple<'py> = (
 
 /// `obj` as a 3 × 3 float64 matrix, row-major.
 fn matrix3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 3]> {
-    let m: [f64; 9] = exactly(flat_floats(obj, name, &[3])?, name)?;
+    let m: [f64; 9] = numbers(obj, name, &[3])?;
     Ok([[m[0], m[1], m[2]], [m[3], m[4], m[5]], [m[6], m[7], m[8]]])
 }
 
-/// `values` as exactly `N` numbers, or an error naming the argument.
-fn exactly<const N: usize>(values: Vec<f64>, name: &str) -> PyResult<[f64; N]> {
-    values.try_into().map_err(|v: Vec<f64>| {
-        ArrayError::new_err(format!("{name} must hold {N} numbers, got {}", v.len()))
-    })
+/// `obj` (shaped (M, *tail)) as exactly `N` numbers, or an error naming the argument.
+fn numbers<const N: usize>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    tail: &[usize],
+) -> PyResult<[f64; N]> {
+    flat_floats(obj, name, tail)?
+        .try_into()
+        .map_err(|v: Vec<f64>| {
+            ArrayError::new_err(format!("{name} must hold {N} numbers, got {}", v.len()))
+        })
 }
