@@ -202,6 +202,42 @@ def test_background_subtraction_recovers_silhouettes_and_ignores_shadows(sequenc
         models[0].mask(np.zeros((10, 10, 3), np.uint8))
 
 
+def _reference_clean_mask(mask, min_blob, max_hole):
+    """`clean_mask`'s rule written out with SciPy's labelling: open by a 3×3 square (as
+    OpenCV does: erode with the outside counted as foreground, then dilate), drop
+    8-connected blobs below `min_blob` pixels, fill 4-connected background components
+    that touch no border and have at most `max_hole` pixels."""
+    from scipy import ndimage
+
+    square = np.ones((3, 3), bool)
+    fg = ndimage.binary_dilation(ndimage.binary_erosion(mask > 0, square, border_value=1), square)
+    labels, n = ndimage.label(fg, square)
+    for k in range(1, n + 1):
+        if (labels == k).sum() < min_blob:
+            fg[labels == k] = False
+    labels, n = ndimage.label(~fg)
+    border = set(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    for k in range(1, n + 1):
+        if k not in border and (max_hole is None or (labels == k).sum() <= max_hole):
+            fg[labels == k] = True
+    return np.where(fg, 255, 0).astype(np.uint8)
+
+
+def test_mask_clean_up_drops_specks_and_fills_holes_as_labelling_every_component_does(rng):
+    from hullcap._silhouette import clean_mask
+
+    for _ in range(300):
+        h, w = rng.integers(1, 40, 2)
+        noise = rng.random((h, w))
+        if rng.random() < 0.7:  # blobs with holes, as a silhouette has; else salt and pepper
+            noise = cv2.GaussianBlur(noise, (0, 0), rng.uniform(0.3, 2.0))
+        mask = np.where(noise > rng.uniform(0.3, 0.7), 255, 0).astype(np.uint8)
+        min_blob, max_hole = int(rng.integers(1, 30)), None if rng.random() < 0.2 else int(rng.integers(0, 30))
+        assert np.array_equal(clean_mask(mask, min_blob, max_hole), _reference_clean_mask(mask, min_blob, max_hole))
+    for mask in (np.zeros((4, 5), np.uint8), np.full((4, 5), 255, np.uint8), np.full((1, 1), 255, np.uint8)):
+        assert np.array_equal(clean_mask(mask, 1, 3), _reference_clean_mask(mask, 1, 3))
+
+
 def _masks(cameras, vertices, faces):
     return [(render_depth(c, vertices, faces)[1] >= 0).astype(np.uint8) * 255 for c in cameras]
 
