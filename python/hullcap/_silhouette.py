@@ -77,10 +77,13 @@ class StatisticalBackground:
         self.min_blob, self.max_hole = min_blob, max_hole
         mean = stack.mean(0)
         spread = stack.std(0) if len(stack) > 1 else np.zeros_like(mean)
-        self._inv_s = (1.0 / np.maximum(spread, noise_floor)).astype(np.float32)
-        es = (mean * self._inv_s).astype(np.float32)
-        self._es = es
+        inv_s = (1.0 / np.maximum(spread, noise_floor)).astype(np.float32)
+        es = (mean * inv_s).astype(np.float32)
         self._es2 = np.maximum((es * es).sum(-1), 1e-6).astype(np.float32)
+        # One contiguous plane per channel: sums over three channels as plane-wise adds
+        # are several times faster than NumPy's reductions over a last axis of three.
+        self._inv_s = [np.ascontiguousarray(inv_s[..., c]) for c in range(3)]
+        self._es = [np.ascontiguousarray(es[..., c]) for c in range(3)]
         # Spread of α and CD under the noise alone: var(α) = 1/Σ(E/s)², and CD² is χ² with
         # two degrees of freedom (three channels, one fitted along E): RMS √2.
         a = 1.0 / np.sqrt(self._es2)
@@ -92,11 +95,12 @@ class StatisticalBackground:
         self._inv_a, self._inv_b = (1.0 / a).astype(np.float32), (1.0 / b).astype(np.float32)
 
     def _distortions(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        i_s = image.astype(np.float32) * self._inv_s
-        dot = np.einsum("ijc,ijc->ij", i_s, self._es)
+        """(α, CD): the brightness and chromaticity distortions of each pixel."""
+        i_s = [cv2.multiply(plane, inv_s, dtype=cv2.CV_32F) for plane, inv_s in zip(cv2.split(image), self._inv_s)]
+        dot = i_s[0] * self._es[0] + i_s[1] * self._es[1] + i_s[2] * self._es[2]
         alpha = dot / self._es2
         # ‖I/s − α·E/s‖² = ‖I/s‖² − (I/s·E/s)²/‖E/s‖² at the optimal α.
-        cd2 = np.einsum("ijc,ijc->ij", i_s, i_s) - dot * alpha
+        cd2 = i_s[0] * i_s[0] + i_s[1] * i_s[1] + i_s[2] * i_s[2] - dot * alpha
         return alpha, np.sqrt(np.maximum(cd2, 0))
 
     def _normalised(self, image: np.ndarray):
