@@ -89,11 +89,11 @@ class SubjectOptions:
         centre_frames: the frames of most bending refitted for each move.
         centre_min_bend: a frame serves the search only when the joint bends at least this
             much (radians) on one side at least: a straight limb says nothing of where it
-            would bend, and a slightly bent one too little. On the development set the
-            quality's peak lies within a centimetre of the true knee on every sequence whose
-            knees bend by 45° or more; d03's knees bend 41° at most in its first three
-            seconds, and there the profile rose to the range's edge (4 cm off) from both
-            colour frames and exact masks.
+            would bend, and a slightly bent one too little. On the development set from
+            exact masks the quality's peak lies within a centimetre of the true knee on
+            every sequence whose knees bend by 45° or more; d03's knees bend 41° at most
+            in its first three seconds, and there the profile rose to the range's edge
+            (4 cm off) from both colour frames and exact masks.
         centre_min_gain: the least rise of mean quality over keeping the centre where it
             is for a move to be made (quality is a fraction; a frame's refits differ by
             about 0.001 for reasons that have nothing to do with the centre).
