@@ -79,13 +79,16 @@ where
     let chunk_len = n.div_ceil(chunks);
     thread::scope(|scope| {
         let f = &f;
-        let handles: Vec<_> = out
+        let (first, rest) = out.split_at_mut(chunk_len);
+        let handles: Vec<_> = rest
             .chunks_mut(chunk_len)
             .enumerate()
-            .map(|(i, chunk)| scope.spawn(move || f(i * chunk_len, chunk)))
+            .map(|(i, chunk)| scope.spawn(move || f((i + 1) * chunk_len, chunk)))
             .collect();
+        // The calling thread takes the first chunk itself: one thread fewer to start
+        // and to wait for on every call (the fit makes several calls per iteration).
+        let mut first_panic = run_caught(|| f(0, first)).err();
         // Join every handle before reporting, so no thread outlives the error.
-        let mut first_panic = None;
         for handle in handles {
             if let Err(payload) = handle.join() {
                 first_panic.get_or_insert(WorkerPanicked(panic_message(payload.as_ref())));
@@ -144,6 +147,16 @@ mod tests {
         })
         .unwrap_err();
         assert!(err.0.starts_with("boom at"), "{err}");
+        // The calling thread's own chunk too, the other chunks still done.
+        let err = for_each_chunk_mut(&mut out, 4, 1, |offset, chunk| {
+            if offset == 0 {
+                panic!("first");
+            }
+            chunk.fill(1);
+        })
+        .unwrap_err();
+        assert_eq!(err.0, "first");
+        assert!(out[out.len() / 4..].iter().all(|&x| x == 1));
         // Also on the calling thread (a single chunk).
         let err = for_each_chunk_mut(&mut out, 1, 1, |_, _| panic!("inline")).unwrap_err();
         assert_eq!(err.0, "inline");
