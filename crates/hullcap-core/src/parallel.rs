@@ -104,7 +104,8 @@ fn run_caught(f: impl FnOnce()) -> Result<(), WorkerPanicked> {
         .map_err(|payload| WorkerPanicked(panic_message(payload.as_ref())))
 }
 
-fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
+/// The message of a panic's payload when it is a string, else "(no message)".
+pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     if let Some(s) = payload.downcast_ref::<&str>() {
         (*s).to_owned()
     } else if let Some(s) = payload.downcast_ref::<String>() {

@@ -265,6 +265,7 @@ impl Problem<'_> {
                 &all_normals,
                 &BuildOptions {
                     normal_weight: Some(self.target.normal_weight()),
+                    threads: Some(self.threads),
                     ..BuildOptions::default()
                 },
             )?;

@@ -16,6 +16,9 @@ pub struct BuildOptions {
     pub normal_weight: Option<f64>,
     /// Most points in a leaf bucket (at least 1).
     pub leaf_size: usize,
+    /// Threads for the build (`None`: [`hullcap_core::resolve_threads`]); the tree does
+    /// not depend on it.
+    pub threads: Option<usize>,
 }
 
 impl Default for BuildOptions {
@@ -23,9 +26,14 @@ impl Default for BuildOptions {
         BuildOptions {
             normal_weight: None,
             leaf_size: DEFAULT_LEAF_SIZE,
+            threads: None,
         }
     }
 }
+
+/// Subtrees with fewer points than this are built on the thread that reaches them: below
+/// it, starting a thread costs about what it saves.
+const PARALLEL_MIN_POINTS: usize = 2048;
 
 /// One node of the tree, inner or leaf, 24 bytes.
 ///
@@ -102,7 +110,8 @@ impl NormalKdTree {
             .collect();
         let mut order: Vec<u32> = (0..points.len() as u32).collect();
         let mut nodes = Vec::with_capacity(2 * points.len().div_ceil(options.leaf_size));
-        split(&keys, &mut order, 0, &mut nodes, options.leaf_size);
+        let threads = hullcap_core::resolve_threads(options.threads);
+        split(&keys, &mut order, 0, &mut nodes, options.leaf_size, threads)?;
         let keys = order.iter().map(|&i| keys[i as usize]).collect();
         Ok(NormalKdTree {
             nodes,
@@ -140,14 +149,18 @@ impl NormalKdTree {
 }
 
 /// Builds the subtree of `order` (a slice of the caller's indices starting at `offset` in
-/// leaf order), appending its nodes; returns the index of its root.
+/// leaf order), appending its nodes in depth-first order; returns the index of its root.
+/// With `threads` > 1 a large subtree's right half is built on another thread into its
+/// own list, then appended with its node indices shifted: the same nodes as one thread
+/// would append.
 fn split(
     keys: &[Key],
     order: &mut [u32],
     offset: usize,
     nodes: &mut Vec<Node>,
     leaf_size: usize,
-) -> u32 {
+    threads: usize,
+) -> Result<u32, KdTreeError> {
     let here = nodes.len() as u32;
     if order.len() <= leaf_size {
         nodes.push(Node {
@@ -156,7 +169,7 @@ fn split(
             a: offset as u32,
             b: (offset + order.len()) as u32,
         });
-        return here;
+        return Ok(here);
     }
     let dim = widest_dimension(keys, order);
     let mid = order.len() / 2;
@@ -170,12 +183,45 @@ fn split(
         a: 0,
         b: 0,
     });
+    let parallel = threads > 1 && order.len() >= PARALLEL_MIN_POINTS;
     let (left, right) = order.split_at_mut(mid);
-    let a = self::split(keys, left, offset, nodes, leaf_size);
-    let b = self::split(keys, right, offset + mid, nodes, leaf_size);
+    let (a, b) = if parallel {
+        let mut right_nodes = Vec::with_capacity(nodes.capacity().saturating_sub(nodes.len()) / 2);
+        let (a, b) = std::thread::scope(|scope| {
+            let worker = scope.spawn(|| {
+                split(
+                    keys,
+                    right,
+                    offset + mid,
+                    &mut right_nodes,
+                    leaf_size,
+                    threads - threads / 2,
+                )
+            });
+            let a = split(keys, left, offset, nodes, leaf_size, threads / 2);
+            let b = worker.join().map_err(|payload| {
+                hullcap_core::WorkerPanicked(hullcap_core::panic_message(payload.as_ref()))
+            });
+            (a, b)
+        });
+        let (a, b) = (a?, b??);
+        let shift = nodes.len() as u32;
+        nodes.extend(right_nodes.into_iter().map(|mut node| {
+            if !node.is_leaf() {
+                node.a += shift;
+                node.b += shift;
+            }
+            node
+        }));
+        (a, b + shift)
+    } else {
+        let a = split(keys, left, offset, nodes, leaf_size, 1)?;
+        let b = split(keys, right, offset + mid, nodes, leaf_size, 1)?;
+        (a, b)
+    };
     nodes[here as usize].a = a;
     nodes[here as usize].b = b;
-    here
+    Ok(here)
 }
 
 /// The dimension along which the keys of `order` have the largest variance.
@@ -214,6 +260,7 @@ mod tests {
             &BuildOptions {
                 normal_weight: None,
                 leaf_size: 7,
+                ..BuildOptions::default()
             },
         )
         .unwrap();
@@ -254,6 +301,31 @@ mod tests {
     }
 
     #[test]
+    fn the_tree_does_not_depend_on_the_number_of_threads() {
+        let (p, n) = random_cloud(20_000, 5);
+        let build = |threads| {
+            let options = BuildOptions {
+                threads: Some(threads),
+                ..BuildOptions::default()
+            };
+            NormalKdTree::build(&p, &n, &options).unwrap()
+        };
+        let one = build(1);
+        for threads in [2, 3, 8] {
+            let other = build(threads);
+            assert_eq!(one.order, other.order, "threads={threads}");
+            assert_eq!(one.keys, other.keys);
+            assert_eq!(one.nodes.len(), other.nodes.len());
+            for (a, b) in one.nodes.iter().zip(&other.nodes) {
+                assert_eq!(
+                    (a.split.to_bits(), a.dim, a.a, a.b),
+                    (b.split.to_bits(), b.dim, b.a, b.b)
+                );
+            }
+        }
+    }
+
+    #[test]
     fn bad_parameters_are_refused() {
         let p = [[0.0; 3]];
         let n = [[0.0, 0.0, 1.0]];
@@ -261,6 +333,7 @@ mod tests {
             let opts = BuildOptions {
                 normal_weight: Some(l),
                 leaf_size: 8,
+                ..BuildOptions::default()
             };
             assert!(matches!(
                 NormalKdTree::build(&p, &n, &opts),
@@ -273,6 +346,7 @@ mod tests {
         let opts = BuildOptions {
             normal_weight: None,
             leaf_size: 0,
+            ..BuildOptions::default()
         };
         assert!(matches!(
             NormalKdTree::build(&p, &n, &opts),

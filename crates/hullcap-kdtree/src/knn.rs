@@ -133,6 +133,7 @@ mod tests {
                     let opts = BuildOptions {
                         normal_weight: None,
                         leaf_size: 5,
+                        ..BuildOptions::default()
                     };
                     let tree = NormalKdTree::build(&p, &n, &opts).unwrap();
                     let got = tree.query_k(&q, &qn, k, &gate, Some(2)).unwrap();

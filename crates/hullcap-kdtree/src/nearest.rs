@@ -110,6 +110,7 @@ mod tests {
         let opts = BuildOptions {
             normal_weight: None,
             leaf_size: leaf,
+            ..BuildOptions::default()
         };
         let tree = NormalKdTree::build(points, normals, &opts).unwrap();
         let got = tree.query(queries, qn, gate, Some(3)).unwrap();
@@ -152,6 +153,7 @@ mod tests {
                     let opts = BuildOptions {
                         normal_weight: None,
                         leaf_size: leaf,
+                        ..BuildOptions::default()
                     };
                     let tree = NormalKdTree::build(&p, &pn, &opts).unwrap();
                     let got = tree.query(&q, &qn, &gate, Some(2)).unwrap();
@@ -171,6 +173,7 @@ mod tests {
         let opts = BuildOptions {
             normal_weight: Some(0.1),
             leaf_size: 4,
+            ..BuildOptions::default()
         };
         let tree = NormalKdTree::build(&p, &n, &opts).unwrap();
         let near_gate = Gate {
@@ -211,6 +214,7 @@ mod tests {
         let opts = BuildOptions {
             normal_weight: Some(0.01),
             leaf_size: 1,
+            ..BuildOptions::default()
         };
         let tree = NormalKdTree::build(&p, &n, &opts).unwrap();
         let gate = Gate {
@@ -270,7 +274,7 @@ mod tests {
         ) {
             let (p, pn) = random_cloud(n, seed);
             let (q, qn) = random_cloud(50, seed ^ 0xABCD);
-            let opts = BuildOptions { normal_weight: Some(lambda), leaf_size: leaf };
+            let opts = BuildOptions { normal_weight: Some(lambda), leaf_size: leaf, ..BuildOptions::default() };
             let tree = NormalKdTree::build(&p, &pn, &opts).unwrap();
             let gate = Gate { max_distance, max_angle };
             let got = tree.query(&q, &qn, &gate, Some(1)).unwrap();

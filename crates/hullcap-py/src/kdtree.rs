@@ -43,6 +43,7 @@ impl NormalKDTree {
         let options = BuildOptions {
             normal_weight,
             leaf_size: arrays::count(leaf_size, "leaf_size", 1)?,
+            ..BuildOptions::default()
         };
         let (p, n) = (points.rows(), normals.rows());
         let tree = detached(py, || NormalKdTree::build(p, n, &options))?;
