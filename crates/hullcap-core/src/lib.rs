@@ -6,4 +6,4 @@
 
 mod parallel;
 
-pub use parallel::{WorkerPanicked, for_each_chunk_mut, panic_message, resolve_threads};
+pub use parallel::{WorkerPanicked, for_each_chunk_mut, resolve_threads};

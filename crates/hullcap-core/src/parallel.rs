@@ -91,7 +91,7 @@ where
         // Join every handle before reporting, so no thread outlives the error.
         for handle in handles {
             if let Err(payload) = handle.join() {
-                first_panic.get_or_insert(WorkerPanicked(panic_message(payload.as_ref())));
+                first_panic.get_or_insert(WorkerPanicked::from_payload(payload.as_ref()));
             }
         }
         first_panic.map_or(Ok(()), Err)
@@ -101,17 +101,21 @@ where
 /// Runs `f` on the calling thread, turning a panic into [`WorkerPanicked`].
 fn run_caught(f: impl FnOnce()) -> Result<(), WorkerPanicked> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))
-        .map_err(|payload| WorkerPanicked(panic_message(payload.as_ref())))
+        .map_err(|payload| WorkerPanicked::from_payload(payload.as_ref()))
 }
 
-/// The message of a panic's payload when it is a string, else "(no message)".
-pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
-    if let Some(s) = payload.downcast_ref::<&str>() {
-        (*s).to_owned()
-    } else if let Some(s) = payload.downcast_ref::<String>() {
-        s.clone()
-    } else {
-        "(no message)".to_owned()
+impl WorkerPanicked {
+    /// The error for a thread's panic payload (as `JoinHandle::join` or `catch_unwind`
+    /// return it), its message when the payload is a string.
+    pub fn from_payload(payload: &(dyn std::any::Any + Send)) -> Self {
+        let message = if let Some(s) = payload.downcast_ref::<&str>() {
+            (*s).to_owned()
+        } else if let Some(s) = payload.downcast_ref::<String>() {
+            s.clone()
+        } else {
+            "(no message)".to_owned()
+        };
+        WorkerPanicked(message)
     }
 }
 

@@ -186,7 +186,7 @@ fn split(
     let parallel = threads > 1 && order.len() >= PARALLEL_MIN_POINTS;
     let (left, right) = order.split_at_mut(mid);
     let (a, b) = if parallel {
-        let mut right_nodes = Vec::with_capacity(nodes.capacity().saturating_sub(nodes.len()) / 2);
+        let mut right_nodes = Vec::with_capacity(2 * right.len().div_ceil(leaf_size));
         let (a, b) = std::thread::scope(|scope| {
             let worker = scope.spawn(|| {
                 split(
@@ -199,9 +199,9 @@ fn split(
                 )
             });
             let a = split(keys, left, offset, nodes, leaf_size, threads / 2);
-            let b = worker.join().map_err(|payload| {
-                hullcap_core::WorkerPanicked(hullcap_core::panic_message(payload.as_ref()))
-            });
+            let b = worker
+                .join()
+                .map_err(|payload| hullcap_core::WorkerPanicked::from_payload(payload.as_ref()));
             (a, b)
         });
         let (a, b) = (a?, b??);
