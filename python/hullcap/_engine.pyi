@@ -355,3 +355,79 @@ def classify_cells(
         min_views: at the finest level, how many views must see a cell to keep it.
         threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
     """
+
+def carve(
+    lo: npt.ArrayLike,
+    voxel: float,
+    fine: tuple[int, int, int] | list[int],
+    levels: int,
+    views: list[tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float,
+                      npt.ArrayLike, npt.ArrayLike | None]],
+    tolerance: int,
+    min_views: int,
+    threads: int | None = None,
+) -> tuple[list[int], npt.NDArray[np.bool_], int]:
+    """The visual hull's coarse-to-fine carving (docs/design.md §7).
+
+    The box of ``fine`` voxels of side `voxel` starting at `lo` is covered by cells of
+    ``2**levels`` voxels; each level's cells are classified as :func:`classify_cells` does
+    (radius ``side · √3 / 2``, 0 at the finest level), the cells in are kept whole and the
+    cells to be split are split in eight, down to single voxels.
+
+    Args:
+        lo: (3,) the first corner of the box (metres).
+        voxel: the finest voxel's side (metres).
+        fine: the box's size in finest voxels per axis (each at least 1).
+        levels: how many times the coarsest cells are halved.
+        views, tolerance, min_views, threads: as :func:`classify_cells`.
+
+    Returns:
+        ``(first, occupancy, tested)``: the finest-voxel index of the occupancy's first
+        voxel (it keeps two empty voxels all round, so it may be negative), the boolean
+        occupancy, and how many cells were tested over all levels. Nothing kept gives a
+        1 × 1 × 1 empty occupancy at index (0, 0, 0).
+    """
+
+def gaussian_blur(
+    values: npt.ArrayLike,
+    sigma: float,
+    threads: int | None = None,
+) -> npt.NDArray[np.float32]:
+    """A 3-D grid of small whole numbers (an occupancy) convolved with a Gaussian of
+    `sigma` voxels cut at 3σ, zero beyond the grid: SciPy's ``gaussian_filter(values,
+    sigma, mode="constant", truncate=3.0)`` in single precision, exactly 0 where no
+    non-zero value is within reach. The work grows with the rows some non-zero value
+    reaches, not with the grid.
+
+    Args:
+        values: (nx, ny, nz) array, converted to uint8 (booleans are 0 and 1).
+        sigma: the Gaussian's standard deviation in voxels, in (0, 100].
+        threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
+
+    Returns:
+        (nx, ny, nz) float32.
+    """
+
+def isosurface(
+    field: npt.ArrayLike,
+    level: float,
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """The closed triangle mesh where a 3-D field crosses `level` (marching cubes whose
+    polygons are worked out from each cube's faces; see docs/design.md §7).
+
+    A grid point is above when its value exceeds `level`; each grid edge between an above
+    point and one that is not holds a vertex (linear interpolation). A face of a cube with
+    its above corners on a diagonal joins them when the bilinear interpolant's saddle is
+    above `level`. The mesh is closed wherever the surface does not reach the grid's border.
+
+    Args:
+        field: (nx, ny, nz) values, at least 2 per axis (converted to float32).
+        level: the value of the surface.
+
+    Returns:
+        ``(vertices, faces, normals)``: (V, 3) positions in grid units (index (i, j, k)
+        is the point (i, j, k)), (T, 3) vertex indices wound counter-clockwise seen from
+        the lower values, and (V, 3) unit normals pointing towards the lower values (the
+        field's gradient negated: along the vertex's edge the difference of its two
+        values, across it central differences interpolated between the edge's ends).
+    """

@@ -25,6 +25,9 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(body::link_tree_problem, m)?)?;
     m.add_function(wrap_pyfunction!(raster::rasterize, m)?)?;
     m.add_function(wrap_pyfunction!(raster::classify_cells, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::carve, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::gaussian_blur, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::isosurface, m)?)?;
     m.add_class::<icp::Target>()?;
     m.add_function(wrap_pyfunction!(icp::fit, m)?)?;
     m.add_function(wrap_pyfunction!(icp::fit_shape, m)?)?;

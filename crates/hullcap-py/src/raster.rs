@@ -2,7 +2,10 @@
 
 use crate::arrays::{self, flat_floats, index_rows, rows3};
 use crate::call::{ArrayError, detached};
-use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn,
+    PyUntypedArrayMethods,
+};
 use pyo3::prelude::*;
 
 /// Depth and triangle index per pixel of triangles given in pixel space; see
@@ -57,6 +60,90 @@ pub(crate) fn classify_cells<'py>(
     let tolerance = arrays::count(tolerance, "tolerance", 0)?;
     let min_views = arrays::count(min_views, "min_views", 0)?;
     let threads = arrays::threads(threads)?;
+    let parsed = parse_views(py, &views)?;
+    let carve_views = carve_views(&parsed);
+    let c = centres.rows();
+    let verdicts = detached(py, || {
+        hullcap_raster::classify_cells(c, radius, &carve_views, tolerance, min_views, threads)
+    })?;
+    Ok(arrays::vec1(
+        py,
+        verdicts.into_iter().map(|v| v as u8).collect(),
+    ))
+}
+
+/// Coarse-to-fine carving into a box of kept finest voxels; see `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (lo, voxel, fine, levels, views, tolerance, min_views, threads=None))]
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub(crate) fn carve<'py>(
+    py: Python<'py>,
+    lo: &Bound<'py, PyAny>,
+    voxel: f64,
+    fine: [i64; 3],
+    levels: i64,
+    views: Vec<Bound<'py, PyAny>>,
+    tolerance: i64,
+    min_views: i64,
+    threads: Option<i64>,
+) -> PyResult<([i64; 3], Bound<'py, PyArrayDyn<bool>>, usize)> {
+    let lo: [f64; 3] = numbers(lo, "lo", &[])?;
+    if !(voxel > 0.0 && voxel.is_finite()) || lo.iter().any(|v| !v.is_finite()) {
+        return Err(ArrayError::new_err(format!(
+            "lo must be finite and voxel finite and > 0, got {lo:?} and {voxel}"
+        )));
+    }
+    let fine = [
+        arrays::count(fine[0], "fine[0]", 1)?,
+        arrays::count(fine[1], "fine[1]", 1)?,
+        arrays::count(fine[2], "fine[2]", 1)?,
+    ];
+    let levels = arrays::count(levels, "levels", 0)?;
+    if levels > 20 || fine.iter().map(|&n| n as f64).product::<f64>() > 1e12 {
+        return Err(ArrayError::new_err(format!(
+            "a grid of {fine:?} voxels in {levels} levels is too large to carve"
+        )));
+    }
+    let tolerance = arrays::count(tolerance, "tolerance", 0)?;
+    let min_views = arrays::count(min_views, "min_views", 0)?;
+    let threads = arrays::threads(threads)?;
+    let parsed = parse_views(py, &views)?;
+    let carve_views = carve_views(&parsed);
+    let carved = detached(py, || {
+        hullcap_raster::carve(
+            lo,
+            voxel,
+            fine,
+            levels as u32,
+            &carve_views,
+            tolerance,
+            min_views,
+            threads,
+        )
+    })?;
+    let occupancy: Vec<bool> = carved.occupancy.iter().map(|&v| v != 0).collect();
+    Ok((
+        carved.first,
+        PyArray1::from_vec(py, occupancy).reshape(carved.shape.to_vec())?,
+        carved.tested,
+    ))
+}
+
+/// A view's camera, image size, focal length and images, borrowed from Python.
+type ParsedView<'py> = (
+    hullcap_raster::Camera,
+    usize,
+    usize,
+    f64,
+    PyReadonlyArray2<'py, f32>,
+    Option<PyReadonlyArray2<'py, f32>>,
+);
+
+/// The views of `classify_cells` and `carve`, checked, with errors naming the view.
+fn parse_views<'py>(
+    py: Python<'py>,
+    views: &[Bound<'py, PyAny>],
+) -> PyResult<Vec<ParsedView<'py>>> {
     let np = py.import("numpy")?;
     let image = |obj: &Bound<'py, PyAny>, name: &str| -> PyResult<PyReadonlyArray2<'py, f32>> {
         np.call_method1("ascontiguousarray", (obj, "float32"))
@@ -93,7 +180,12 @@ pub(crate) fn classify_cells<'py>(
         }
         parsed.push((camera, w, h, focal, signed, prior));
     }
-    let carve_views: Vec<hullcap_raster::CarveView<'_>> = parsed
+    Ok(parsed)
+}
+
+/// The engine's views over parsed ones.
+fn carve_views<'a>(parsed: &'a [ParsedView<'_>]) -> Vec<hullcap_raster::CarveView<'a>> {
+    parsed
         .iter()
         .map(
             |(camera, w, h, focal, signed, prior)| hullcap_raster::CarveView {
@@ -105,14 +197,81 @@ pub(crate) fn classify_cells<'py>(
                 focal: *focal,
             },
         )
-        .collect();
-    let c = centres.rows();
-    let verdicts = detached(py, || {
-        hullcap_raster::classify_cells(c, radius, &carve_views, tolerance, min_views, threads)
+        .collect()
+}
+
+/// A 3-D Gaussian blur of a grid of small whole numbers (an occupancy); see
+/// `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (values, sigma, threads=None))]
+pub(crate) fn gaussian_blur<'py>(
+    py: Python<'py>,
+    values: &Bound<'py, PyAny>,
+    sigma: f64,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let threads = arrays::threads(threads)?;
+    let values: PyReadonlyArrayDyn<'py, u8> = py
+        .import("numpy")?
+        .call_method1("ascontiguousarray", (values, "uint8"))
+        .map_err(|e| ArrayError::new_err(format!("values is not an array of 0..255: {e}")))?
+        .extract()?;
+    let shape: [usize; 3] = values.shape().try_into().map_err(|_| {
+        ArrayError::new_err(format!(
+            "values must be 3-D, got shape {:?}",
+            values.shape()
+        ))
     })?;
-    Ok(arrays::vec1(
-        py,
-        verdicts.into_iter().map(|v| v as u8).collect(),
+    let flat = values.as_slice().unwrap_or(&[]);
+    let blurred = detached(py, || {
+        hullcap_raster::gaussian_blur(flat, shape, sigma, threads)
+    })?;
+    PyArray1::from_vec(py, blurred).reshape(shape.to_vec())
+}
+
+/// The surface where a 3-D field crosses a level, in grid units; see
+/// `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (field, level))]
+#[allow(clippy::type_complexity)]
+pub(crate) fn isosurface<'py>(
+    py: Python<'py>,
+    field: &Bound<'py, PyAny>,
+    level: f64,
+) -> PyResult<(
+    Bound<'py, PyArrayDyn<f64>>,
+    Bound<'py, PyArrayDyn<i64>>,
+    Bound<'py, PyArrayDyn<f64>>,
+)> {
+    if !level.is_finite() {
+        return Err(ArrayError::new_err(format!(
+            "level must be finite, got {level}"
+        )));
+    }
+    let field: PyReadonlyArrayDyn<'py, f32> = py
+        .import("numpy")?
+        .call_method1("ascontiguousarray", (field, "float32"))
+        .map_err(|e| ArrayError::new_err(format!("field is not an array of numbers: {e}")))?
+        .extract()?;
+    let shape: [usize; 3] = field.shape().try_into().map_err(|_| {
+        ArrayError::new_err(format!("field must be 3-D, got shape {:?}", field.shape()))
+    })?;
+    let values = field.as_slice().unwrap_or(&[]);
+    let surface = detached(py, || hullcap_raster::isosurface(values, shape, level))?;
+    let rows = |r: Vec<[f64; 3]>| {
+        let n = r.len();
+        PyArray1::from_vec(py, r.into_flattened()).reshape(vec![n, 3])
+    };
+    let faces: Vec<i64> = surface
+        .faces
+        .as_flattened()
+        .iter()
+        .map(|&i| i64::from(i))
+        .collect();
+    Ok((
+        rows(surface.vertices)?,
+        PyArray1::from_vec(py, faces).reshape(vec![surface.faces.len(), 3])?,
+        rows(surface.normals)?,
     ))
 }
 

@@ -138,6 +138,112 @@ pub fn classify_cells(
     Ok(verdicts)
 }
 
+/// The occupancy of the finest voxels that the carving keeps (see [`carve`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Carved {
+    /// The finest-voxel index of the box's first voxel (may be negative: the box keeps
+    /// two empty voxels all round).
+    pub first: [i64; 3],
+    /// The box's shape in finest voxels.
+    pub shape: [usize; 3],
+    /// Row-major, the last axis fastest: 1 where the voxel is kept.
+    pub occupancy: Vec<u8>,
+    /// How many cells were tested, all levels together.
+    pub tested: usize,
+}
+
+/// Coarse-to-fine carving of the box of `fine` voxels of side `h` whose first corner is
+/// `lo`: the grid of cells of side `h · 2^levels` covering it is classified
+/// ([`classify_cells`], with the radius of each level's cell, `side · √3 / 2`, and 0 at
+/// the finest level), the cells in are kept whole, the boundary cells are split in eight,
+/// and so on down to the finest voxels. The result is the bounding box of the kept voxels
+/// grown by two empty voxels all round (a box of 1 × 1 × 1 empty voxel at index 0 when
+/// nothing is kept).
+///
+/// # Errors
+/// As [`classify_cells`].
+#[allow(clippy::too_many_arguments)]
+pub fn carve(
+    lo: [f64; 3],
+    h: f64,
+    fine: [usize; 3],
+    levels: u32,
+    views: &[CarveView<'_>],
+    tolerance: usize,
+    min_views: usize,
+    threads: Option<usize>,
+) -> Result<Carved, RasterError> {
+    let top = fine.map(|n| n.div_ceil(1 << levels).max(1));
+    let mut cells: Vec<[i64; 3]> = Vec::with_capacity(top.iter().product());
+    for i in 0..top[0] {
+        for j in 0..top[1] {
+            for k in 0..top[2] {
+                cells.push([i, j, k].map(|v| v as i64));
+            }
+        }
+    }
+    let mut kept: Vec<([i64; 3], i64)> = Vec::new(); // (first finest voxel, side in voxels)
+    let mut tested = 0;
+    for level in (0..=levels).rev() {
+        let side = 1i64 << level;
+        let size = h * side as f64;
+        let radius = if level > 0 {
+            size * 3f64.sqrt() / 2.0
+        } else {
+            0.0
+        };
+        let centres: Vec<[f64; 3]> = cells
+            .iter()
+            .map(|c| std::array::from_fn(|d| lo[d] + (c[d] as f64 + 0.5) * size))
+            .collect();
+        tested += cells.len();
+        let verdicts = classify_cells(&centres, radius, views, tolerance, min_views, threads)?;
+        let mut split = Vec::new();
+        for (cell, verdict) in cells.iter().zip(verdicts) {
+            match verdict {
+                Verdict::In => kept.push((cell.map(|v| v * side), side)),
+                Verdict::Boundary => split.extend(
+                    (0..8)
+                        .map(|o| [o >> 2 & 1, o >> 1 & 1, o & 1].map(|b| b as i64))
+                        .map(|o| std::array::from_fn(|d| 2 * cell[d] + o[d])),
+                ),
+                Verdict::Out => {}
+            }
+        }
+        cells = split;
+    }
+    if kept.is_empty() {
+        return Ok(Carved {
+            first: [0; 3],
+            shape: [1; 3],
+            occupancy: vec![0],
+            tested,
+        });
+    }
+    let first: [i64; 3] =
+        std::array::from_fn(|d| kept.iter().map(|(c, _)| c[d]).min().unwrap_or(0) - 2);
+    let last: [i64; 3] =
+        std::array::from_fn(|d| kept.iter().map(|(c, s)| c[d] + s).max().unwrap_or(0) + 2);
+    let shape: [usize; 3] = std::array::from_fn(|d| (last[d] - first[d]) as usize);
+    let mut occupancy = vec![0u8; shape.iter().product()];
+    for (corner, side) in kept {
+        let at: [usize; 3] = std::array::from_fn(|d| (corner[d] - first[d]) as usize);
+        let side = side as usize;
+        for i in at[0]..at[0] + side {
+            for j in at[1]..at[1] + side {
+                let row = (i * shape[1] + j) * shape[2];
+                occupancy[row + at[2]..row + at[2] + side].fill(1);
+            }
+        }
+    }
+    Ok(Carved {
+        first,
+        shape,
+        occupancy,
+        tested,
+    })
+}
+
 fn classify(
     centre: &[f64; 3],
     radius: f64,

@@ -1,5 +1,5 @@
-//! Image-space kernels: z-buffered rasterisation of triangle meshes already projected to
-//! pixels, and images sampled at the projections of world points.
+//! Image-space and voxel kernels: z-buffered rasterisation of triangle meshes already
+//! projected to pixels, and the visual hull: carving, blur and surface.
 //!
 //! The renderer of synthetic sequences (`hullcap._synth`) projects a mesh into each camera
 //! (with its distortion) and hands the engine pixel coordinates and camera depths; the
@@ -11,15 +11,19 @@
 //! owned by one of them, by the top-left rule). Depth is interpolated
 //! perspective-correctly (1/z is linear in the image). Triangles with a corner at or
 //! behind the camera's near plane are skipped, not clipped.
-
 //!
-//! The visual hull (`hullcap._hull`) carves coarse to fine: [`classify_cells`] projects
-//! each cell's centre into every view (with distortion), reads the view's distance image
-//! there and decides whether the cell is out, in or to be split, in one parallel pass over
-//! the cells.
+//! The visual hull (`hullcap._hull`) is made here too. [`carve`] descends coarse to fine:
+//! [`classify_cells`] projects each cell's centre into every view (with distortion), reads
+//! the view's distance image there and decides whether the cell is out, in or to be split,
+//! in one parallel pass over a level's cells. [`gaussian_blur`] smooths the occupancy it
+//! returns and [`isosurface`] turns that into a closed triangle mesh.
 
 mod carve;
+mod isosurface;
 mod raster;
+mod smooth;
 
-pub use carve::{Camera, CarveView, Verdict, classify_cells};
+pub use carve::{Camera, CarveView, Carved, Verdict, carve, classify_cells};
+pub use isosurface::{Isosurface, isosurface};
 pub use raster::{RasterError, Rendered, rasterize};
+pub use smooth::gaussian_blur;

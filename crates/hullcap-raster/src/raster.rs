@@ -23,6 +23,19 @@ pub enum RasterError {
         /// Height in pixels.
         height: usize,
     },
+    /// A field does not hold the values of its shape, or is too small or too large.
+    #[error(
+        "a field of {len} values does not fit the shape {shape:?} (2 to about 1.4e9 points, at least 2 per axis)"
+    )]
+    FieldSize {
+        /// Its number of values.
+        len: usize,
+        /// The shape it was given.
+        shape: [usize; 3],
+    },
+    /// A blur's width is not a positive number of voxels (at most 100).
+    #[error("sigma must be positive and at most 100 voxels, got {0}")]
+    BadSigma(f64),
     /// An image of a view does not hold `width × height` values.
     #[error("image {index} holds {len} values, not {width}×{height}")]
     ImageSize {
