@@ -91,6 +91,17 @@ def test_the_engine_classifies_cells_as_the_numpy_projection_says(rng):
         classify_cells(X, 0.0, [engine_views[0][:5]], 0, 3)
     with pytest.raises(ArrayError, match="radius must be finite"):
         classify_cells(X, -1.0, engine_views, 0, 3)
+    from hullcap._engine import carve
+
+    with pytest.raises(ArrayError, match=r"views\[0\].prior is 3×2"):
+        carve((0, 0, 0), 0.01, (10, 10, 10), 1, bad_prior, 0, 3)
+    with pytest.raises(ArrayError, match="voxel finite and > 0"):
+        carve((0, 0, 0), 0.0, (10, 10, 10), 1, engine_views, 0, 3)
+    with pytest.raises(ArrayError, match="too large"):
+        carve((0, 0, 0), 0.01, (10**5, 10**5, 10**5), 1, engine_views, 0, 3)
+    nothing = [v[:5] + (np.full_like(v[5], -1e9), None) for v in engine_views]  # every pixel far outside
+    first, occupancy, tested = carve((-0.05, -0.05, 0.95), 0.01, (10, 10, 10), 1, nothing, 0, 3)
+    assert (first, occupancy.shape, occupancy.any(), tested) == ([0, 0, 0], (1, 1, 1), False, 125)
 
 
 def test_cameras_json_round_trip_and_validation(tmp_path):
@@ -291,33 +302,78 @@ def test_coarse_to_fine_carving_keeps_exactly_what_carving_every_voxel_keeps(tol
     assert sorted(map(tuple, got)) == sorted(map(tuple, brute))
 
 
-@pytest.mark.parametrize("sigma", [0.3, 0.7, 1.0])
-def test_marching_cubes_over_the_surface_cells_alone_gives_the_whole_box_triangles(sigma, rng):
-    """Against marching cubes over every cell: a ball, random blobs (some cut by the box's
-    faces), a wire one voxel thin and a rod. The smoothing is SciPy's Gaussian filter
-    to float32 rounding, with zeros in the same places."""
+def _blobs(rng, shape=(60, 56, 64), pad=0):
+    """A ball, random blobs, a wire one voxel thin and a rod, inside `pad` empty voxels."""
     from scipy import ndimage
-    from skimage.measure import marching_cubes
 
-    from hullcap._hull import _smoothed, _surface_cells
-
-    shape = (60, 56, 64)
     noise = ndimage.gaussian_filter(rng.random(shape), 3.0)
     occupancy = noise > np.quantile(noise, 0.97)
     occupancy |= np.linalg.norm(np.indices(shape) - np.array([30, 28, 32])[:, None, None, None], axis=0) < 16
     occupancy[5, 3:30, 20] = True
     occupancy[50:53, 40:43, 3:60] = True
-    field = _smoothed(occupancy, sigma)
+    return np.pad(occupancy, pad)
+
+
+@pytest.mark.parametrize("sigma", [0.3, 0.7, 1.0])
+def test_the_engines_blur_is_scipys_gaussian_filter(sigma, rng):
+    """To float32 rounding, with zeros in the same places (blobs cut by the box's faces
+    included), whatever the number of threads."""
+    from scipy import ndimage
+
+    from hullcap._engine import gaussian_blur
+
+    occupancy = _blobs(rng)
+    field = gaussian_blur(occupancy, sigma, threads=2)
     reference = ndimage.gaussian_filter(occupancy.astype(np.float64), sigma, mode="constant", truncate=3.0)
+    assert field.dtype == np.float32 and field.shape == occupancy.shape
     np.testing.assert_allclose(field, reference, atol=1e-6)
     np.testing.assert_array_equal(field == 0, reference == 0)
-    cells = _surface_cells(field)
-    assert cells.mean() < 0.5
-    whole = marching_cubes(field, 0.5, gradient_direction="ascent")
-    masked = marching_cubes(field, 0.5, gradient_direction="ascent", mask=cells)
-    assert len(whole[0]) > 1000
-    for a, b in zip(whole, masked):
-        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(gaussian_blur(occupancy, sigma, threads=1), field)
+    with pytest.raises(ValueError, match="sigma"):
+        gaussian_blur(occupancy, 0.0)
+    with pytest.raises(ValueError, match="3-D"):
+        gaussian_blur(occupancy[0], sigma)
+
+
+@pytest.mark.parametrize("sigma", [0.3, 0.7, 1.0])
+def test_the_engines_isosurface_has_marching_cubes_vertices_and_is_closed(sigma, rng):
+    """Against scikit-image's marching cubes on the same field: the same vertices (each
+    grid edge the level crosses, interpolated linearly), a surface as closed and as
+    shaped (Euler characteristic, volume), wound outwards."""
+    from scipy.spatial import cKDTree
+    from skimage.measure import marching_cubes
+
+    from hullcap._engine import gaussian_blur, isosurface
+
+    field = gaussian_blur(_blobs(rng, pad=3), sigma)
+    vertices, faces, normals = isosurface(field, 0.5)
+    ref_vertices, ref_faces, _, _ = marching_cubes(field, 0.5, gradient_direction="ascent")
+    assert len(vertices) == len(ref_vertices) > 5000
+    assert cKDTree(ref_vertices).query(vertices)[0].max() < 1e-5
+    topology, ref_topology = check_closed(vertices, faces), check_closed(ref_vertices, ref_faces)
+    assert topology["closed"] and ref_topology["closed"]
+    assert topology["euler"] == ref_topology["euler"]
+    assert topology["components"] == ref_topology["components"]
+    assert topology["volume"] == pytest.approx(ref_topology["volume"], rel=2e-3)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0)
+
+
+def test_isosurface_normals_follow_the_surface_of_a_smoothed_ball():
+    """A ball of radius 5 voxels (an arm's thickness at 1 cm), smoothed as the hull is:
+    the normals point outwards, within a few degrees of the true ones."""
+    from hullcap._engine import gaussian_blur, isosurface
+
+    centre = np.array([20.3, 19.6, 21.2])
+    occupancy = np.linalg.norm(np.indices((40, 40, 42)) - centre[:, None, None, None], axis=0) < 5
+    vertices, faces, normals = isosurface(gaussian_blur(occupancy, 0.7), 0.5)
+    radial = (vertices - centre) / np.linalg.norm(vertices - centre, axis=1, keepdims=True)
+    angle = np.degrees(np.arccos(np.clip(np.sum(normals * radial, axis=1), -1, 1)))
+    assert angle.mean() < 10 and angle.max() < 30
+    assert check_closed(vertices, faces)["volume"] > 0
+    with pytest.raises(ValueError, match="level"):
+        isosurface(occupancy, np.nan)
+    with pytest.raises(ValueError, match="shape"):
+        isosurface(np.zeros((1, 4, 4)), 0.5)
 
 
 def test_hull_of_a_box_contains_it_and_hugs_its_faces():

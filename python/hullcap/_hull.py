@@ -1,4 +1,5 @@
-"""The visual hull (docs/design.md §7): coarse-to-fine voxel carving, then marching cubes.
+"""The visual hull (docs/design.md §7): coarse-to-fine voxel carving, then the surface of
+the smoothed occupancy.
 
 A voxel is carved when, in some view, its whole footprint lies outside the silhouette.
 The footprint of a cube of side h centred at X is inside the disc of radius
@@ -19,10 +20,9 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from skimage.measure import marching_cubes
 
 from hullcap._cameras import Cameras
-from hullcap._engine import classify_cells
+from hullcap._engine import carve, gaussian_blur, isosurface
 from hullcap._mesh import Surface
 from hullcap._silhouette import signed_distance
 from hullcap.errors import CalibrationError, HullError
@@ -67,7 +67,7 @@ def _boxed_signed_distance(mask) -> np.ndarray:
 
 
 def _carving_view(camera, mask, prior=None) -> tuple:
-    """One camera's mask as the engine's carving test takes it (`classify_cells`): the
+    """One camera's mask as the engine's carving takes it (`carve`, `classify_cells`): the
     camera, its larger focal length, and the signed distance to the silhouette's edge
     and to the prior's (None without one)."""
     focal = float(max(camera.K[0, 0], camera.K[1, 1]))
@@ -147,94 +147,26 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     return surface
 
 
-_IN, _SPLIT = 1, 2
-"""The engine's verdicts on a cell (0 is out); see `classify_cells`."""
-
-
 def _carve(views, lo, hi, h, report, min_views, tolerance):
     """``(origin, occupancy)`` carved from `views` (`_carving_view`s): a boolean grid of
     the finest voxels holding the hull, with at least two empty voxels all round, and
     the world position of its voxel (0, 0, 0)'s corner. Up to `tolerance` views may
-    leave a voxel out (inside every view's prior, where the views have priors)."""
+    leave a voxel out (inside every view's prior, where the views have priors). The
+    coarsest cells are 2^levels voxels on a side, about 24 of them across the volume's
+    longest side, at most 32 voxels (5 levels)."""
     n_fine = np.maximum(np.ceil((hi - lo) / h).astype(int), 1)
     levels = min(5, max(0, int(np.ceil(np.log2(max(n_fine.max() / 24, 1))))))
-    n0 = np.ceil(n_fine / 2**levels).astype(int)
-    cells = np.stack(np.meshgrid(*[np.arange(n) for n in n0], indexing="ij"), -1).reshape(-1, 3)
-    offsets = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), -1).reshape(-1, 3)
-    blocks = []  # (first fine index (N, 3), side in fine voxels)
-    for level in range(levels, -1, -1):
-        size = h * 2**level
-        report.voxels_tested += len(cells)
-        radius = size * np.sqrt(3) / 2 if level else 0.0
-        verdict = classify_cells(lo + (cells + 0.5) * size, radius, views, tolerance,
-                                 min(min_views, len(views)))
-        blocks.append((cells[verdict == _IN] * 2**level, 2**level))
-        if level == 0:
-            break
-        boundary = cells[verdict == _SPLIT]
-        cells = (boundary[:, None, :] * 2 + offsets).reshape(-1, 3)
-    starts = [b for b, _ in blocks if len(b)]
-    if not starts:
-        return lo, np.zeros((1, 1, 1), bool)
-    first = np.min([b.min(0) for b in starts], 0) - 2
-    last = np.max([b.max(0) + side for b, side in blocks if len(b)], 0) + 2
-    occupancy = np.zeros(last - first, bool)
-    for b, side in blocks:
-        if len(b):
-            r = np.arange(side)
-            within = np.stack(np.meshgrid(r, r, r, indexing="ij"), -1).reshape(-1, 3)
-            idx = ((b - first)[:, None, :] + within).reshape(-1, 3)
-            occupancy[idx[:, 0], idx[:, 1], idx[:, 2]] = True
-    return lo + first * h, occupancy
+    first, occupancy, tested = carve(lo, h, n_fine.tolist(), levels, views, tolerance, min(min_views, len(views)))
+    report.voxels_tested += tested
+    return lo + np.asarray(first) * h, occupancy
 
 
 def _mesh(occupancy, origin, h, smooth) -> Surface:
-    field = _smoothed(occupancy, smooth) if smooth > 0 else occupancy.astype(np.float32)
-    # The field is high inside; with "ascent" scikit-image winds the triangles
-    # counter-clockwise seen from outside and its normals point outwards (tested).
-    cells = _surface_cells(field) if smooth > 0 else None
-    verts, faces, normals, _ = marching_cubes(field, 0.5, spacing=(h, h, h), gradient_direction="ascent", mask=cells)
-    vertices = verts + origin + 0.5 * h
-    n = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    return Surface(vertices.astype(np.float64), faces.astype(np.int64), n.astype(np.float64))
-
-
-def _smoothed(occupancy: np.ndarray, sigma: float) -> np.ndarray:
-    """The occupancy (float32) convolved with a Gaussian of `sigma` voxels cut at 3σ,
-    zero beyond the box: what ``scipy.ndimage.gaussian_filter(..., mode="constant",
-    truncate=3.0)`` gives (tested), in one OpenCV row filter per axis, 3.6 times faster
-    than SciPy's filter on a d01 hull's box (docs/performance.md)."""
-    radius = int(3.0 * sigma + 0.5)
-    x = np.arange(-radius, radius + 1)
-    kernel = np.exp(-0.5 * (x / sigma) ** 2)
-    kernel = (kernel / kernel.sum()).astype(np.float32)
-    one = np.ones(1, np.float32)
-    nx, ny, nz = occupancy.shape
-    border = cv2.BORDER_CONSTANT
-    along_z = cv2.sepFilter2D(occupancy.astype(np.float32).reshape(nx * ny, nz), cv2.CV_32F, kernel, one,
-                              borderType=border).reshape(nx, ny, nz)
-    along_y = np.empty_like(along_z)
-    for i in range(nx):  # the x-slices one by one: a (x·y, z) view would mix neighbouring slices' rows
-        cv2.sepFilter2D(along_z[i], cv2.CV_32F, one, kernel, dst=along_y[i], borderType=border)
-    return cv2.sepFilter2D(along_y.reshape(nx, ny * nz), cv2.CV_32F, one, kernel,
-                           borderType=border).reshape(nx, ny, nz)
-
-
-def _surface_cells(field: np.ndarray) -> np.ndarray:
-    """The cells that can hold the 0.5 level of an occupancy smoothed by a Gaussian (cut
-    at 3σ, as `_mesh` does), as scikit-image's ``marching_cubes(mask=...)`` reads them:
-    a cell is marked at its last corner (the one with the highest indices). They are the
-    cells with a corner whose value is neither exactly 0 nor the field's maximum. A cell
-    with every corner 0 or at the maximum is not crossed: a corner at exactly 0 has no
-    occupied voxel in its kernel, so each of its neighbours sees occupied voxels only in
-    the outermost layer of its own kernel along some axis, which weighs 0.057 in all at
-    σ = 0.7 voxel (at most about 0.06 for any σ). Marching cubes visiting these cells
-    alone gives the same triangles in the same order (tested).
-    """
-    cells = np.pad((field != 0) & (field != field.max()), ((1, 0),) * 3)
-    cells = cells[1:] | cells[:-1]  # a corner partial, axis by axis
-    cells = cells[:, 1:] | cells[:, :-1]
-    return cells[:, :, 1:] | cells[:, :, :-1]
+    field = gaussian_blur(occupancy, smooth) if smooth > 0 else occupancy.astype(np.float32)
+    # The field is high inside: the engine winds the triangles counter-clockwise seen
+    # from outside and its normals point outwards.
+    vertices, faces, normals = isosurface(field, 0.5)
+    return Surface(vertices * h + (origin + 0.5 * h), faces, normals)
 
 
 def check_bounds(bounds) -> tuple[np.ndarray, np.ndarray]:
