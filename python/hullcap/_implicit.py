@@ -3,8 +3,8 @@
 The template body (``data/body/make_template.py``) is such a surface around the link model,
 and tests and benchmarks use plain capsule unions to make bodies with known geometry. Each
 primitive is a signed distance (or a close stand-in: negative inside, zero on the surface,
-about the true distance near it) evaluated on a voxel grid; marching cubes turns the zero
-set of their union into a closed triangle mesh.
+about the true distance near it) evaluated on a voxel grid; the engine's marching cubes
+(`isosurface`) turns the zero set of their union into a closed triangle mesh.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from skimage.measure import marching_cubes
 
+from hullcap._engine import isosurface
 from hullcap.errors import ModelError
 
 Capsule = tuple[Sequence[float], Sequence[float], float]
@@ -61,10 +61,10 @@ def field_mesh(field, lo, hi, voxel: float):
     axes = [np.arange(lo[d], hi[d] + voxel, voxel) for d in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
     values = field(grid)
-    # With the field negative inside, marching_cubes winds triangles counter-clockwise
-    # seen from outside (the tests check the signed volume is positive).
-    vertices, faces, _, _ = marching_cubes(values, 0.0, spacing=(voxel,) * 3)
-    return vertices + lo, faces.astype(np.int64)
+    # The engine winds triangles counter-clockwise seen from the lower values: with the
+    # field negated (high inside), from outside.
+    vertices, faces, _ = isosurface(-values, 0.0)
+    return vertices * voxel + lo, faces
 
 
 def capsule_union_mesh(capsules: Sequence[Capsule], voxel: float = 0.006, pad: float = 0.03):
