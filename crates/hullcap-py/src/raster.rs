@@ -99,9 +99,15 @@ pub(crate) fn carve<'py>(
         arrays::count(fine[2], "fine[2]", 1)?,
     ];
     let levels = arrays::count(levels, "levels", 0)?;
-    if levels > 20 || fine.iter().map(|&n| n as f64).product::<f64>() > 1e12 {
+    // The coarsest level's cells are all allocated and tested at once.
+    let coarsest: f64 = fine
+        .iter()
+        .map(|&n| (n as f64 / 2f64.powi(levels.min(60) as i32)).ceil())
+        .product();
+    if levels > 20 || coarsest > (1u64 << 26) as f64 {
         return Err(ArrayError::new_err(format!(
-            "a grid of {fine:?} voxels in {levels} levels is too large to carve"
+            "a grid of {fine:?} voxels in {levels} levels is too large to carve \
+             ({coarsest} cells at the coarsest level, at most 2^26 and 20 levels)"
         )));
     }
     let tolerance = arrays::count(tolerance, "tolerance", 0)?;
