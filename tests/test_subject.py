@@ -9,6 +9,7 @@ from hullcap import BodyModel, FitOptions, PoseParameters, Surface, build_subjec
 from hullcap._fitting import yaw_rotation
 from hullcap._shape import ShapeBasis
 from hullcap._subject import SubjectOptions
+from hullcap.errors import OptionsError
 
 
 def test_fit_options_come_from_the_engine_and_are_checked():
@@ -133,3 +134,5 @@ def test_a_knee_centre_is_found_from_frames_where_the_knee_bends():
     straight = [make_target(Surface(subject.vertices, subject.faces, subject.normals))]
     assert search_centres(template, "knee", "z", straight, [PoseParameters(thetas[0], np.eye(3), np.zeros(3))],
                           options) == (template, 0.0)
+    with pytest.raises(OptionsError, match="centre_samples"):
+        SubjectOptions(centre_samples=0)
