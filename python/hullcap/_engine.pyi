@@ -321,11 +321,15 @@ def evaluate(
     correspondences both ways), the poses spread over the threads: how a search ranks
     its candidates."""
 
+CarveView = tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float, npt.ArrayLike,
+                  npt.ArrayLike | None]
+"""One camera's view as the hull's carving reads it: ``(K, dist, R, t, focal, signed,
+prior)`` (see :func:`classify_cells`)."""
+
 def classify_cells(
     centres: ArrayLike3,
     radius: float,
-    views: list[tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float,
-                      npt.ArrayLike, npt.ArrayLike | None]],
+    views: list[CarveView],
     tolerance: int,
     min_views: int,
     threads: int | None = None,
@@ -361,8 +365,7 @@ def carve(
     voxel: float,
     fine: tuple[int, int, int] | list[int],
     levels: int,
-    views: list[tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float,
-                      npt.ArrayLike, npt.ArrayLike | None]],
+    views: list[CarveView],
     tolerance: int,
     min_views: int,
     threads: int | None = None,

@@ -2,10 +2,7 @@
 
 use crate::arrays::{self, flat_floats, index_rows, rows3};
 use crate::call::{ArrayError, detached};
-use numpy::{
-    PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArray2, PyReadonlyArrayDyn,
-    PyUntypedArrayMethods,
-};
+use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 /// Depth and triangle index per pixel of triangles given in pixel space; see
@@ -60,7 +57,7 @@ pub(crate) fn classify_cells<'py>(
     let tolerance = arrays::count(tolerance, "tolerance", 0)?;
     let min_views = arrays::count(min_views, "min_views", 0)?;
     let threads = arrays::threads(threads)?;
-    let parsed = parse_views(py, &views)?;
+    let parsed = parse_views(&views)?;
     let carve_views = carve_views(&parsed);
     let c = centres.rows();
     let verdicts = detached(py, || {
@@ -113,7 +110,7 @@ pub(crate) fn carve<'py>(
     let tolerance = arrays::count(tolerance, "tolerance", 0)?;
     let min_views = arrays::count(min_views, "min_views", 0)?;
     let threads = arrays::threads(threads)?;
-    let parsed = parse_views(py, &views)?;
+    let parsed = parse_views(&views)?;
     let carve_views = carve_views(&parsed);
     let carved = detached(py, || {
         hullcap_raster::carve(
@@ -141,22 +138,12 @@ type ParsedView<'py> = (
     usize,
     usize,
     f64,
-    PyReadonlyArray2<'py, f32>,
-    Option<PyReadonlyArray2<'py, f32>>,
+    PyReadonlyArrayDyn<'py, f32>,
+    Option<PyReadonlyArrayDyn<'py, f32>>,
 );
 
 /// The views of `classify_cells` and `carve`, checked, with errors naming the view.
-fn parse_views<'py>(
-    py: Python<'py>,
-    views: &[Bound<'py, PyAny>],
-) -> PyResult<Vec<ParsedView<'py>>> {
-    let np = py.import("numpy")?;
-    let image = |obj: &Bound<'py, PyAny>, name: &str| -> PyResult<PyReadonlyArray2<'py, f32>> {
-        np.call_method1("ascontiguousarray", (obj, "float32"))
-            .map_err(|e| ArrayError::new_err(format!("{name} is not an array of numbers: {e}")))?
-            .extract()
-            .map_err(|_| ArrayError::new_err(format!("{name} must be 2-D (height, width)")))
-    };
+fn parse_views<'py>(views: &[Bound<'py, PyAny>]) -> PyResult<Vec<ParsedView<'py>>> {
     let mut parsed = Vec::with_capacity(views.len());
     for (i, view) in views.iter().enumerate() {
         let name = format!("views[{i}]");
@@ -172,18 +159,17 @@ fn parse_views<'py>(
             r: matrix3(&r, &format!("{name}.R"))?,
             t: numbers(&t, &format!("{name}.t"), &[])?,
         };
-        let signed = image(&signed, &format!("{name}.signed"))?;
-        let prior = prior
-            .map(|p| image(&p, &format!("{name}.prior")))
-            .transpose()?;
-        let (h, w) = (signed.shape()[0], signed.shape()[1]);
-        if let Some(p) = prior.as_ref().filter(|p| p.shape() != signed.shape()) {
+        let image = |obj: &Bound<'py, PyAny>, what: &str| {
+            contiguous::<f32, 2>(obj, "float32", &format!("{name}.{what}"), "(height, width)")
+        };
+        let (signed, [h, w]) = image(&signed, "signed")?;
+        let prior = prior.map(|p| image(&p, "prior")).transpose()?;
+        if let Some((_, [ph, pw])) = prior.as_ref().filter(|(_, shape)| *shape != [h, w]) {
             return Err(ArrayError::new_err(format!(
-                "{name}.prior is {}×{}, its signed image {w}×{h}",
-                p.shape()[1],
-                p.shape()[0]
+                "{name}.prior is {pw}×{ph}, its signed image {w}×{h}"
             )));
         }
+        let prior = prior.map(|(p, _)| p);
         parsed.push((camera, w, h, focal, signed, prior));
     }
     Ok(parsed)
@@ -217,17 +203,7 @@ pub(crate) fn gaussian_blur<'py>(
     threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
     let threads = arrays::threads(threads)?;
-    let values: PyReadonlyArrayDyn<'py, u8> = py
-        .import("numpy")?
-        .call_method1("ascontiguousarray", (values, "uint8"))
-        .map_err(|e| ArrayError::new_err(format!("values is not an array of 0..255: {e}")))?
-        .extract()?;
-    let shape: [usize; 3] = values.shape().try_into().map_err(|_| {
-        ArrayError::new_err(format!(
-            "values must be 3-D, got shape {:?}",
-            values.shape()
-        ))
-    })?;
+    let (values, shape) = contiguous::<u8, 3>(values, "uint8", "values", "(nx, ny, nz)")?;
     let flat = values.as_slice().unwrap_or(&[]);
     let blurred = detached(py, || {
         hullcap_raster::gaussian_blur(flat, shape, sigma, threads)
@@ -254,14 +230,7 @@ pub(crate) fn isosurface<'py>(
             "level must be finite, got {level}"
         )));
     }
-    let field: PyReadonlyArrayDyn<'py, f32> = py
-        .import("numpy")?
-        .call_method1("ascontiguousarray", (field, "float32"))
-        .map_err(|e| ArrayError::new_err(format!("field is not an array of numbers: {e}")))?
-        .extract()?;
-    let shape: [usize; 3] = field.shape().try_into().map_err(|_| {
-        ArrayError::new_err(format!("field must be 3-D, got shape {:?}", field.shape()))
-    })?;
+    let (field, shape) = contiguous::<f32, 3>(field, "float32", "field", "(nx, ny, nz)")?;
     let values = field.as_slice().unwrap_or(&[]);
     let surface = detached(py, || hullcap_raster::isosurface(values, shape, level))?;
     let rows = |r: Vec<[f64; 3]>| {
@@ -279,6 +248,29 @@ pub(crate) fn isosurface<'py>(
         PyArray1::from_vec(py, faces).reshape(vec![surface.faces.len(), 3])?,
         rows(surface.normals)?,
     ))
+}
+
+/// `obj` as a C-contiguous NumPy array of `dtype` with `D` axes (`layout` names them),
+/// and its shape; an `ArrayError` naming the argument `name` otherwise.
+fn contiguous<'py, T: numpy::Element, const D: usize>(
+    obj: &Bound<'py, PyAny>,
+    dtype: &str,
+    name: &str,
+    layout: &str,
+) -> PyResult<(PyReadonlyArrayDyn<'py, T>, [usize; D])> {
+    let array: PyReadonlyArrayDyn<'py, T> = obj
+        .py()
+        .import("numpy")?
+        .call_method1("ascontiguousarray", (obj, dtype))
+        .map_err(|e| ArrayError::new_err(format!("{name} is not an array of {dtype}: {e}")))?
+        .extract()?;
+    let shape = array.shape().try_into().map_err(|_| {
+        ArrayError::new_err(format!(
+            "{name} must be {D}-D {layout}, got shape {:?}",
+            array.shape()
+        ))
+    })?;
+    Ok((array, shape))
 }
 
 /// One view as `classify_cells` takes it from Python.

@@ -38,6 +38,12 @@ const fn corner_offset(c: usize) -> [usize; 3] {
     [c & 1, (c >> 1) & 1, (c >> 2) & 1]
 }
 
+/// The grid point at corner `c` of the cube whose first corner is `origin`.
+fn corner_of(origin: [usize; 3], c: usize) -> [usize; 3] {
+    let o = corner_offset(c);
+    [origin[0] + o[0], origin[1] + o[1], origin[2] + o[2]]
+}
+
 /// The corner with offsets (x, y, z).
 const fn corner_index(o: [usize; 3]) -> usize {
     o[0] | (o[1] << 1) | (o[2] << 2)
@@ -141,12 +147,8 @@ fn cases() -> &'static Cases {
         let mut diagonal = [0u8; 256];
         let mut patterns = vec![Pattern::default(); 256 * 64];
         for case in 1..255 {
-            let above = |c: usize| case >> c & 1 == 1;
             for (f, face) in faces.iter().enumerate() {
-                let crossed = (0..4)
-                    .filter(|&m| above(face.corners[m]) != above(face.corners[(m + 1) % 4]))
-                    .count();
-                if crossed == 4 {
+                if crossings(face, case).len() == 4 {
                     diagonal[case] |= 1 << f;
                 }
             }
@@ -163,16 +165,21 @@ fn cases() -> &'static Cases {
     })
 }
 
+/// The sides m of `face` (from corner m to corner m + 1) that `case` crosses: 0, 2 or 4.
+fn crossings(face: &Face, case: usize) -> Vec<usize> {
+    let above = |c: usize| case >> c & 1 == 1;
+    (0..4)
+        .filter(|&m| above(face.corners[m]) != above(face.corners[(m + 1) % 4]))
+        .collect()
+}
+
 /// The [`Pattern`] of `case` with the faces of `choices` joining their above corners.
 fn pattern(faces: &[Face; 6], case: usize, choices: usize) -> Pattern {
     let above = |c: usize| case >> c & 1 == 1;
     // next[e]: the crossing edge that follows e along the cube's loops.
     let mut next = [usize::MAX; 12];
     for (f, face) in faces.iter().enumerate() {
-        let crossings: Vec<usize> = (0..4)
-            .filter(|&m| above(face.corners[m]) != above(face.corners[(m + 1) % 4]))
-            .collect();
-        match crossings[..] {
+        match crossings(face, case)[..] {
             [] => {}
             [a, b] => {
                 // From where the walk enters the above corners to where it leaves them.
@@ -417,11 +424,7 @@ impl Marcher<'_> {
     /// interpolant of its four values exceeds the level at its saddle. Both cubes that
     /// share the face evaluate the same expression on the same values.
     fn above_joined(&self, origin: [usize; 3], face: Face) -> bool {
-        let value = |c: usize| {
-            let o = corner_offset(c);
-            self.at([origin[0] + o[0], origin[1] + o[1], origin[2] + o[2]])
-        };
-        let [q0, q1, q2, q3] = face.corners.map(value);
+        let [q0, q1, q2, q3] = face.corners.map(|c| self.at(corner_of(origin, c)));
         // q0, q2 and q1, q3 are the diagonals; both sides list q0 first, and swapping q1
         // and q3 changes neither sum nor product.
         let (on, across) = (q0 + q2, q1 + q3);
@@ -432,20 +435,19 @@ impl Marcher<'_> {
     /// The vertex on the cube's edge `e`, made the first time any cube asks for it.
     fn vertex(&mut self, origin: [usize; 3], e: usize) -> u32 {
         let (axis, c) = edge_start(e);
-        let o = corner_offset(c);
-        let nz = self.shape[2];
-        let (j, k) = (origin[1] + o[1], origin[2] + o[2]);
+        let p = corner_of(origin, c);
+        let at = p[1] * self.shape[2] + p[2];
+        let plane = p[0] - origin[0];
         let slot = match axis {
-            0 => &mut self.along_x[j * nz + k],
-            1 => &mut self.planes[o[0]].along_y[j * nz + k],
-            _ => &mut self.planes[o[0]].along_z[j * nz + k],
+            0 => &mut self.along_x[at],
+            1 => &mut self.planes[plane].along_y[at],
+            _ => &mut self.planes[plane].along_z[at],
         };
         if *slot != 0 {
             return *slot - 1;
         }
         let id = self.out.vertices.len() as u32;
         *slot = id + 1;
-        let p = [origin[0] + o[0], origin[1] + o[1], origin[2] + o[2]];
         let mut q = p;
         q[axis] += 1;
         let (fp, fq) = (self.at(p), self.at(q));

@@ -23,9 +23,10 @@ pub enum RasterError {
         /// Height in pixels.
         height: usize,
     },
-    /// A field does not hold the values of its shape, or is too small or too large.
+    /// A grid's values do not fill its shape, or (for an isosurface) an axis has fewer
+    /// than 2 points or the grid has 2^32 edges or more.
     #[error(
-        "a field of {len} values does not fit the shape {shape:?} (2 to about 1.4e9 points, at least 2 per axis)"
+        "a grid of {len} values cannot have the shape {shape:?} (the values fill the shape; an isosurface needs 2 points per axis at least and fewer than 2^32 edges)"
     )]
     FieldSize {
         /// Its number of values.
