@@ -108,6 +108,7 @@ pub fn fit_with_prior(
         options,
         prior,
         iterations: 0,
+        kept: None,
     };
     let mut previous = f64::INFINITY;
     let mut last = None;
@@ -260,29 +261,56 @@ pub fn evaluate_poses(
         .collect()
 }
 
+/// A pose's linearisation point: the skeleton's pose, the gated correspondences, and σ.
+type Linearised = (SkeletonPose, Correspondences, f64);
+
 struct Fitter<'a> {
     problem: Problem<'a>,
     model_points: &'a [u32],
     options: &'a FitOptions,
     prior: Option<&'a PosePrior>,
     iterations: usize,
+    /// The last pairs found and the pose they were found at. The correspondences are
+    /// the costly part of an iteration, and a stage often starts where the last one
+    /// stopped: after a round's evaluation, or after a stage whose last step found no
+    /// lower energy. Those pairs are then the same to the last bit and are not sought again.
+    kept: Option<(Params, Linearised)>,
 }
 
 impl Fitter<'_> {
     /// The statistics of `params` (iterations and rounds left for the caller).
-    fn evaluate(&self, params: &Params) -> Result<FitStats, IcpError> {
-        evaluate(
+    fn evaluate(&mut self, params: &Params) -> Result<FitStats, IcpError> {
+        if self.options.reverse_weight == 0.0 {
+            // The stages' pairs are one-sided; the statistics need both ways.
+            return evaluate(
+                self.problem.rig,
+                self.problem.target,
+                self.model_points,
+                params,
+                self.options,
+                self.problem.threads,
+            );
+        }
+        let (pose, found, sigma) = self.pairs(params)?;
+        let energy = self
+            .problem
+            .energy(&pose, &params.root, &found.pairs, sigma)?;
+        let stats = found.stats(
             self.problem.rig,
-            self.problem.target,
             self.model_points,
-            params,
+            energy,
+            sigma,
             self.options,
-            self.problem.threads,
-        )
+        );
+        self.keep(params, (pose, found, sigma));
+        Ok(stats)
     }
 
-    /// The skeleton's pose, the gated correspondences, and σ.
-    fn pairs(&self, params: &Params) -> Result<(SkeletonPose, Correspondences, f64), IcpError> {
+    /// The linearisation at `params`: the kept one when it was found there, else afresh.
+    fn pairs(&mut self, params: &Params) -> Result<Linearised, IcpError> {
+        if let Some((_, kept)) = self.kept.take_if(|(at, _)| at == params) {
+            return Ok(kept);
+        }
         let pose = self.problem.rig.skeleton().forward(&params.theta)?;
         let found = self.problem.correspond(
             &pose,
@@ -295,6 +323,10 @@ impl Fitter<'_> {
         Ok((pose, found, sigma))
     }
 
+    fn keep(&mut self, params: &Params, linearised: Linearised) {
+        self.kept = Some((params.clone(), linearised));
+    }
+
     /// ICP iterations on the parameters `active` until they settle.
     fn stage(&mut self, params: &mut Params, active: &[usize]) -> Result<(), IcpError> {
         let mut damping = 1e-3;
@@ -304,6 +336,7 @@ impl Fitter<'_> {
             let (pose, found, sigma) = self.pairs(params)?;
             let pairs = &found.pairs;
             if pairs.len() < active.len() {
+                self.keep(params, (pose, found, sigma));
                 return Ok(()); // too few partners to say anything
             }
             let sums =
@@ -380,7 +413,10 @@ impl Fitter<'_> {
                         return Ok(());
                     }
                 }
-                None => return Ok(()),
+                None => {
+                    self.keep(params, (pose, found, sigma));
+                    return Ok(());
+                }
             }
         }
         Ok(())
