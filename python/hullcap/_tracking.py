@@ -85,14 +85,19 @@ class TrackerOptions:
             (every view overruled adds phantom volume to the hull).
         fit: the per-frame fit (two-sided by default; ``reverse_weight=0`` is the paper's
             one-sided energy), hierarchical as in the paper: root, then joint groups from
-            the torso outwards, twice, then all together. The search and the subject's
-            model use it, and so does tracking unless `quick_fit` is set.
+            the torso outwards, then all together. One pass over the stages
+            (``rounds=1``): a frame starts a frame away from its pose, and on the
+            development set a second pass took a third more iterations (43 against 32 a
+            frame on average) for no better joints (docs/accuracy.md). The search uses it,
+            and so does tracking unless `quick_fit` is set; the first seconds tracked for
+            the subject's model use `calibration_fit`.
         quick_fit: when set, the fit from each start (the prediction, the last pose, the
             girdle start) instead of `fit`; for speed, every parameter at once:
             ``FitOptions(hierarchical=False, iterations=15, tolerance=3e-4,
             reverse_weight=1.0)``. A frame away the hierarchy's stages mostly buy
             iterations: on 15 frames of d02 (exact masks) that fit takes 10 iterations and
-            61 ms where the hierarchical one takes 30 and 136 ms, to the same joint error.
+            61 ms where the hierarchical one (two rounds, the default then) takes 30 and
+            136 ms, to the same joint error.
             When no start's quick fit passes, the hierarchical fit from the first start
             is tried before the search, and a quick fit from the girdle start counts only
             if it keeps the arms' lines (``SearchOptions.girdle_turn``). Off by default:
@@ -109,6 +114,12 @@ class TrackerOptions:
             fit the model's proportions and joint centres again over `calibration_frames`
             frames of them, and track from the start with the refined model.
         calibration_seconds, calibration_frames: see `refine_joints`.
+        calibration_fit: the fit of those first seconds (and of their searches), in place
+            of `fit`: the model is built once from their poses, so they get two rounds
+            over the hierarchy's stages. With one, the poses of the demo's window moved
+            the knee search's best gain from 0.00187 to 0.00201, over its threshold
+            (``SubjectOptions.centre_min_gain``, 0.002), and the knees of our own
+            template 2 cm off (demo 8.1 mm against 5.2).
         quality_window: the accepted frames (most recent) whose median quality is the
             reference a new frame is judged against.
         quality_margin: a fit passes without a search when its quality is at most this far
@@ -164,12 +175,13 @@ class TrackerOptions:
     guided: bool = True
     guidance: GuidedOptions = field(default_factory=GuidedOptions)
     hull_tolerance: int | None = None
-    fit: FitOptions = field(default_factory=lambda: FitOptions(rounds=2, reverse_weight=1.0))
+    fit: FitOptions = field(default_factory=lambda: FitOptions(rounds=1, reverse_weight=1.0))
     quick_fit: FitOptions | None = None
     subject: SubjectOptions = field(default_factory=SubjectOptions)
     refine_joints: bool = True
     calibration_seconds: float = 3.0
     calibration_frames: int = 8
+    calibration_fit: FitOptions = field(default_factory=lambda: FitOptions(rounds=2, reverse_weight=1.0))
     quality_window: int = 30
     quality_margin: float = 0.1
     chain_margin: float = 0.2
@@ -492,7 +504,7 @@ class Tracker:
         last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
         # The model is built from these poses: full fits, and a search whenever one is not good.
-        strict = replace(self.options, quick_fit=None, recheck_margin=None)
+        strict = replace(self.options, fit=self.options.calibration_fit, quick_fit=None, recheck_margin=None)
         state = _State(subject.model, strict, subject.fit)
         for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
             self._track(state, window, frame)
