@@ -11,6 +11,7 @@ from hullcap._cli import main
 from hullcap._evaluate import accuracy
 from hullcap._sequence import Sequence
 from hullcap._synth import synthesize
+from hullcap._tracking import quick_fit_options
 
 
 def turn(yaw):
@@ -118,8 +119,8 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     assert pose["theta"].shape == (20, 29) and not pose["failed"].any()
     assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 29
     # The same subject tracked again with quick fits: as close, for fewer iterations.
-    quick = FitOptions(hierarchical=False, iterations=15, tolerance=3e-4, reverse_weight=1.0)
-    again = Tracker(seq, model=BodyModel.load(tmp_path / "out" / "model"), options=TrackerOptions(quick_fit=quick))
+    again = Tracker(seq, model=BodyModel.load(tmp_path / "out" / "model"),
+                    options=TrackerOptions(quick_fit=quick_fit_options()))
     fast = again.run(tmp_path / "quick", show_progress=False)
     assert accuracy(fast, short_sequence).mean_mm < 25
     assert fast.iterations.sum() < 0.7 * result.iterations.sum()

@@ -63,6 +63,13 @@ CHECKPOINT = ".checkpoint.npz"
 PROBLEMS = "problems.json"
 
 
+def quick_fit_options() -> FitOptions:
+    """A fit of every parameter at once for at most 15 iterations, for a start a few steps
+    from its minimum (``TrackerOptions.girdle_fit``, and ``quick_fit`` when asked); a new
+    object each call, since fit options can be changed in place."""
+    return FitOptions(hierarchical=False, iterations=15, tolerance=3e-4, reverse_weight=1.0)
+
+
 @dataclass(frozen=True)
 class TrackerOptions:
     """Every choice of a tracking run.
@@ -92,9 +99,8 @@ class TrackerOptions:
             and so does tracking unless `quick_fit` is set; the first seconds tracked for
             the subject's model use `calibration_fit`.
         quick_fit: when set, the fit from each start (the prediction, the last pose, the
-            girdle start) instead of `fit`; for speed, every parameter at once:
-            ``FitOptions(hierarchical=False, iterations=15, tolerance=3e-4,
-            reverse_weight=1.0)``. A frame away the hierarchy's stages mostly buy
+            girdle start) instead of `fit`; for speed, every parameter at once
+            (:func:`quick_fit_options`). A frame away the hierarchy's stages mostly buy
             iterations: on 15 frames of d02 (exact masks) that fit takes 10 iterations and
             61 ms where the hierarchical one (two rounds, the default then) takes 30 and
             136 ms, to the same joint error.
@@ -112,8 +118,7 @@ class TrackerOptions:
         girdle_fit: the fit from the girdle start (:meth:`hullcap._reacquire.PoseSearch.
             girdle_start`), tried after the fit from the prediction wherever a raised arm's
             clavicle lies low: every parameter at once, for at most 15 iterations
-            (``FitOptions(hierarchical=False, iterations=15, tolerance=3e-4,
-            reverse_weight=1.0)``). That start is the tracked fit with only the raised
+            (:func:`quick_fit_options`). That start is the tracked fit with only the raised
             arms' elevation shared otherwise between shoulder and clavicle, a few steps
             from its own minimum, and the hierarchy's stages, which move the root and the
             torso first, mostly spend iterations there: on the 4-camera development
@@ -188,8 +193,7 @@ class TrackerOptions:
     hull_tolerance: int | None = None
     fit: FitOptions = field(default_factory=lambda: FitOptions(rounds=1, reverse_weight=1.0))
     quick_fit: FitOptions | None = None
-    girdle_fit: FitOptions | None = field(default_factory=lambda: FitOptions(
-        hierarchical=False, iterations=15, tolerance=3e-4, reverse_weight=1.0))
+    girdle_fit: FitOptions | None = field(default_factory=quick_fit_options)
     subject: SubjectOptions = field(default_factory=SubjectOptions)
     refine_joints: bool = True
     calibration_seconds: float = 3.0
