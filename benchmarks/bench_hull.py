@@ -3,7 +3,8 @@
 The hull is timed side by side with a naive carving of the same volume in NumPy (every
 1 cm voxel centre projected into every view), its surface (the engine's blur and
 isosurface) beside SciPy's Gaussian filter and scikit-image's marching cubes on the same
-occupancy, and the mask quality (IoU against the exact silhouettes) beside OpenCV's MOG2. Run: ``.venv/bin/python benchmarks/bench_hull.py``.
+occupancy, and the mask quality (IoU against the exact silhouettes) beside OpenCV's MOG2.
+Run: ``.venv/bin/python benchmarks/bench_hull.py``.
 
 ``--devset d01_bend …`` instead prints, per camera of those development sequences, the IoU
 against the exact masks (mean and worst frame) and the time per camera frame of Horprasert's

@@ -102,8 +102,9 @@ class SubjectOptions:
             gains are a few thousandths, and with the fit's 1500 samples (about every
             20th vertex of a hull) a different draw of the same hull changes them that
             much: on the synthetic demo the best move gained 0.00187 with one vertex order
-            and 0.00202 with another, on either side of `centre_min_gain`. Four times the
-            samples halve that noise.
+            and 0.00202 with another, on either side of `centre_min_gain`. A sampled
+            fraction's noise falls as one over the square root of the samples: four times
+            the samples halve it.
     """
 
     length_sigma: float = 0.15

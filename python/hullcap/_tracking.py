@@ -579,7 +579,8 @@ class Tracker:
                 best = fitted
         girdle = None if best is None else state.search.girdle_start(best.pose)
         if girdle is not None:
-            fitted = self._fit_from(state, target, girdle, options.girdle_fit or first)
+            girdle_options = first if options.girdle_fit is None else options.girdle_fit
+            fitted = self._fit_from(state, target, girdle, girdle_options)
             iterations += fitted.iterations
             if quality(fitted) > quality(best) and state.search.same_arm_lines(best.pose, fitted.pose):
                 best = fitted

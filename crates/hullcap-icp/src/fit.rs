@@ -214,13 +214,35 @@ pub(crate) fn evaluate(
     let pose = rig.skeleton().forward(&params.theta)?;
     let found = problem.correspond(&pose, &params.root, model_points, options, true)?;
     let sigma = robust_sigma(&found.forward, options.sigma_min);
+    statistics(
+        &problem,
+        model_points,
+        &params.root,
+        &pose,
+        &found,
+        sigma,
+        options,
+    )
+}
+
+/// The statistics of pairs found both ways at a pose, with the energy the fit minimises
+/// (over the model→hull pairs alone when the fit is one-sided).
+fn statistics(
+    problem: &Problem<'_>,
+    model_points: &[u32],
+    root: &RootPose,
+    pose: &SkeletonPose,
+    found: &Correspondences,
+    sigma: f64,
+    options: &FitOptions,
+) -> Result<FitStats, IcpError> {
     let counted = if options.reverse_weight > 0.0 {
         &found.pairs[..]
     } else {
         &found.pairs[..found.forward.len()]
     };
-    let energy = problem.energy(&pose, &params.root, counted, sigma)?;
-    Ok(found.stats(rig, model_points, energy, sigma, options))
+    let energy = problem.energy(pose, root, counted, sigma)?;
+    Ok(found.stats(problem.rig, model_points, energy, sigma, options))
 }
 
 /// The statistics of many poses of one rig against one target, without fitting (fresh
@@ -292,16 +314,15 @@ impl Fitter<'_> {
             );
         }
         let (pose, found, sigma) = self.pairs(params)?;
-        let energy = self
-            .problem
-            .energy(&pose, &params.root, &found.pairs, sigma)?;
-        let stats = found.stats(
-            self.problem.rig,
+        let stats = statistics(
+            &self.problem,
             self.model_points,
-            energy,
+            &params.root,
+            &pose,
+            &found,
             sigma,
             self.options,
-        );
+        )?;
         self.keep(params, (pose, found, sigma));
         Ok(stats)
     }

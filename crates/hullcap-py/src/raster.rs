@@ -124,10 +124,9 @@ pub(crate) fn carve<'py>(
             threads,
         )
     })?;
-    let occupancy: Vec<bool> = carved.occupancy.iter().map(|&v| v != 0).collect();
     Ok((
         carved.first,
-        PyArray1::from_vec(py, occupancy).reshape(carved.shape.to_vec())?,
+        PyArray1::from_vec(py, carved.occupancy).reshape(carved.shape.to_vec())?,
         carved.tested,
     ))
 }

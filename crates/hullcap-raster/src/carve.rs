@@ -146,8 +146,8 @@ pub struct Carved {
     pub first: [i64; 3],
     /// The box's shape in finest voxels.
     pub shape: [usize; 3],
-    /// Row-major, the last axis fastest: 1 where the voxel is kept.
-    pub occupancy: Vec<u8>,
+    /// Row-major, the last axis fastest: true where the voxel is kept.
+    pub occupancy: Vec<bool>,
     /// How many cells were tested, all levels together.
     pub tested: usize,
 }
@@ -216,7 +216,7 @@ pub fn carve(
         return Ok(Carved {
             first: [0; 3],
             shape: [1; 3],
-            occupancy: vec![0],
+            occupancy: vec![false],
             tested,
         });
     }
@@ -225,14 +225,14 @@ pub fn carve(
     let last: [i64; 3] =
         std::array::from_fn(|d| kept.iter().map(|(c, s)| c[d] + s).max().unwrap_or(0) + 2);
     let shape: [usize; 3] = std::array::from_fn(|d| (last[d] - first[d]) as usize);
-    let mut occupancy = vec![0u8; shape.iter().product()];
+    let mut occupancy = vec![false; shape.iter().product()];
     for (corner, side) in kept {
         let at: [usize; 3] = std::array::from_fn(|d| (corner[d] - first[d]) as usize);
         let side = side as usize;
         for i in at[0]..at[0] + side {
             for j in at[1]..at[1] + side {
                 let row = (i * shape[1] + j) * shape[2];
-                occupancy[row + at[2]..row + at[2] + side].fill(1);
+                occupancy[row + at[2]..row + at[2] + side].fill(true);
             }
         }
     }
