@@ -3,6 +3,7 @@
 
 use crate::normal_equations::{Correspondences, Problem, robust_sigma};
 use crate::solve::levenberg_marquardt;
+use crate::variants::{evaluate_variants, moving_vertices};
 use crate::{FitOptions, IcpError, PosePrior, Solver, Target};
 use hullcap_body::{Rig, RootPose, Skeleton, SkeletonPose};
 use hullcap_core::resolve_threads;
@@ -227,7 +228,7 @@ pub(crate) fn evaluate(
 
 /// The statistics of pairs found both ways at a pose, with the energy the fit minimises
 /// (over the model→hull pairs alone when the fit is one-sided).
-fn statistics(
+pub(crate) fn statistics(
     problem: &Problem<'_>,
     model_points: &[u32],
     root: &RootPose,
@@ -261,17 +262,22 @@ pub fn evaluate_poses(
         p.root.validate()?;
         rig.skeleton().forward(&p.theta)?;
     }
+    let threads = resolve_threads(options.threads);
+    if let Some(moving) = moving_vertices(rig, poses) {
+        let problem = Problem {
+            rig,
+            target,
+            kind: options.residual,
+            threads,
+        };
+        return evaluate_variants(&problem, model_points, poses, &moving, options);
+    }
     let mut out: Vec<Option<Result<FitStats, IcpError>>> = vec![None; poses.len()];
-    hullcap_core::for_each_chunk_mut(
-        &mut out,
-        resolve_threads(options.threads),
-        1,
-        |offset, chunk| {
-            for (slot, params) in chunk.iter_mut().zip(&poses[offset..]) {
-                *slot = Some(evaluate(rig, target, model_points, params, options, 1));
-            }
-        },
-    )?;
+    hullcap_core::for_each_chunk_mut(&mut out, threads, 1, |offset, chunk| {
+        for (slot, params) in chunk.iter_mut().zip(&poses[offset..]) {
+            *slot = Some(evaluate(rig, target, model_points, params, options, 1));
+        }
+    })?;
     out.into_iter()
         .map(|r| {
             r.unwrap_or(Err(IcpError::BadParameter {

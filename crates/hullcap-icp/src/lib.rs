@@ -22,6 +22,7 @@ mod pose_prior;
 mod shape_fit;
 mod solve;
 mod target;
+mod variants;
 
 pub use error::IcpError;
 pub use fit::{FitStats, LinkCounts, Params, evaluate_poses, fit, fit_with_prior};

@@ -13,7 +13,7 @@
 
 use crate::{FitOptions, FitStats, IcpError, LinkCounts, Residual, Target};
 use hullcap_body::{Rig, RootPose, Shape, SkeletonPose};
-use hullcap_kdtree::{BuildOptions, Gate, NormalKdTree};
+use hullcap_kdtree::{BuildOptions, Gate, Neighbor, NormalKdTree};
 use nalgebra::Vector3;
 
 /// Posed model points: positions and unit normals, world frame.
@@ -243,8 +243,40 @@ impl Problem<'_> {
             .target
             .tree
             .query(&points, &normals, &options.gate, Some(self.threads))?;
+        let mut out = self.forward_pairs(model_points, &points, &found);
+        if reverse {
+            let every = spread(self.rig.n_vertices(), options.reverse_vertices);
+            let vertices = self.posed_points(pose, root, &every)?;
+            let samples = self.target.samples(options.reverse_points);
+            let found = self.vertex_tree(&vertices)?.query(
+                &self.sample_points(&samples),
+                &self.sample_normals(&samples),
+                &Gate::default(),
+                Some(self.threads),
+            )?;
+            self.add_reverse_pairs(
+                &mut out,
+                &every,
+                &vertices,
+                &samples,
+                &found,
+                options,
+                model_points.len(),
+            );
+        }
+        Ok(out)
+    }
+
+    /// The model→hull pairs of the model points posed at `points`, given each one's
+    /// gated nearest target key.
+    pub(crate) fn forward_pairs(
+        &self,
+        model_points: &[u32],
+        points: &[[f64; 3]],
+        found: &[Neighbor],
+    ) -> Correspondences {
         let mut out = Correspondences::default();
-        for ((nb, &vertex), p) in found.iter().zip(model_points).zip(&points) {
+        for ((nb, &vertex), p) in found.iter().zip(model_points).zip(points) {
             if nb.index >= 0 {
                 let t = nb.index as usize;
                 let (_, _, d) = residual(self.kind, self.target, &Vector3::from(*p), t);
@@ -257,55 +289,79 @@ impl Problem<'_> {
                 out.forward.push(d);
             }
         }
-        if reverse {
-            let every = spread(self.rig.n_vertices(), options.reverse_vertices);
-            let (all_points, all_normals) = self.posed_points(pose, root, &every)?;
-            let model = NormalKdTree::build(
-                &all_points,
-                &all_normals,
-                &BuildOptions {
-                    normal_weight: Some(self.target.normal_weight()),
-                    threads: Some(self.threads),
-                    ..BuildOptions::default()
-                },
-            )?;
-            let samples = self.target.samples(options.reverse_points);
-            let (sp, sn): (Vec<[f64; 3]>, Vec<[f64; 3]>) = samples
-                .iter()
-                .map(|&k| {
-                    (
-                        self.target.points[k as usize],
-                        self.target.normals[k as usize],
-                    )
-                })
-                .unzip();
-            // Ungated, then gated here: each sample's nearest vertex says which part of
-            // the body it belongs to even when the pair is refused.
-            let found = model.query(&sp, &sn, &Gate::default(), Some(self.threads))?;
-            let weight = options.reverse_weight * model_points.len() as f64 / samples.len() as f64;
-            for ((nb, &k), n) in found.iter().zip(&samples).zip(&sn) {
-                let nearest = nb.index.max(0) as usize;
-                let vertex = every[nearest];
-                out.reverse_links
-                    .push(self.rig.dominant_link(vertex as usize) as u32);
-                let p = Vector3::from(all_points[nearest]);
-                let space = (p - Vector3::from(self.target.points[k as usize])).norm();
-                let dot = Vector3::from(all_normals[nearest]).dot(&Vector3::from(*n));
-                if nb.index < 0 || !options.gate.admits(space, dot) {
-                    out.reverse.push(f64::INFINITY);
-                    continue;
-                }
-                let (_, _, d) = residual(Residual::PointToPlane, self.target, &p, k as usize);
-                out.pairs.push(Pair {
-                    vertex,
-                    target: k,
-                    weight,
-                    kind: Residual::PointToPlane,
-                });
-                out.reverse.push(d);
+        out
+    }
+
+    /// A kd-tree over posed model vertices, with the target's λ.
+    pub(crate) fn vertex_tree(
+        &self,
+        (points, normals): &PosedPoints,
+    ) -> Result<NormalKdTree, IcpError> {
+        Ok(NormalKdTree::build(
+            points,
+            normals,
+            &BuildOptions {
+                normal_weight: Some(self.target.normal_weight()),
+                threads: Some(self.threads),
+                ..BuildOptions::default()
+            },
+        )?)
+    }
+
+    /// The positions of the target points `samples`.
+    pub(crate) fn sample_points(&self, samples: &[u32]) -> Vec<[f64; 3]> {
+        samples
+            .iter()
+            .map(|&k| self.target.points[k as usize])
+            .collect()
+    }
+
+    /// The normals of the target points `samples`.
+    pub(crate) fn sample_normals(&self, samples: &[u32]) -> Vec<[f64; 3]> {
+        samples
+            .iter()
+            .map(|&k| self.target.normals[k as usize])
+            .collect()
+    }
+
+    /// Adds the hull→model pairs to `out`: each hull sample of `samples` with its
+    /// nearest vertex `found` (ungated; an index into `every`, whose posed positions and
+    /// normals are `vertices`), gated here, so that each sample's nearest vertex says
+    /// which part of the body it belongs to even when the pair is refused.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn add_reverse_pairs(
+        &self,
+        out: &mut Correspondences,
+        every: &[u32],
+        (points, normals): &PosedPoints,
+        samples: &[u32],
+        found: &[Neighbor],
+        options: &FitOptions,
+        n_model_points: usize,
+    ) {
+        let weight = options.reverse_weight * n_model_points as f64 / samples.len() as f64;
+        for (nb, &k) in found.iter().zip(samples) {
+            let nearest = nb.index.max(0) as usize;
+            let vertex = every[nearest];
+            out.reverse_links
+                .push(self.rig.dominant_link(vertex as usize) as u32);
+            let p = Vector3::from(points[nearest]);
+            let space = (p - Vector3::from(self.target.points[k as usize])).norm();
+            let dot = Vector3::from(normals[nearest])
+                .dot(&Vector3::from(self.target.normals[k as usize]));
+            if nb.index < 0 || !options.gate.admits(space, dot) {
+                out.reverse.push(f64::INFINITY);
+                continue;
             }
+            let (_, _, d) = residual(Residual::PointToPlane, self.target, &p, k as usize);
+            out.pairs.push(Pair {
+                vertex,
+                target: k,
+                weight,
+                kind: Residual::PointToPlane,
+            });
+            out.reverse.push(d);
         }
-        Ok(out)
     }
 
     /// The robust energy of the pairs at a pose (no derivatives).

@@ -54,7 +54,8 @@ impl NormalKdTree {
         Ok((queries, gate.prepare(self.lambda)))
     }
 
-    /// Answers every query into a row of `width` results (`answer(scratch, key, row)`),
+    /// Answers every query into a row of `width` results (`answer(scratch, index, key,
+    /// row)`, `index` the query's place in the caller's order),
     /// from up to `threads` threads, each with its own `scratch`; returns the rows in the
     /// order of `queries`.
     pub(crate) fn answer_batch<R, S>(
@@ -63,7 +64,7 @@ impl NormalKdTree {
         width: usize,
         threads: usize,
         scratch: impl Fn() -> S + Sync,
-        answer: impl Fn(&mut S, &Key, &mut [R]) + Sync,
+        answer: impl Fn(&mut S, usize, &Key, &mut [R]) + Sync,
     ) -> Result<Vec<R>, KdTreeError>
     where
         R: Copy + Default + Send,
@@ -78,7 +79,8 @@ impl NormalKdTree {
             |offset, chunk| {
                 let mut s = scratch();
                 for (i, row) in chunk.iter_mut().enumerate() {
-                    answer(&mut s, &queries[order[offset + i] as usize].key, row);
+                    let q = order[offset + i] as usize;
+                    answer(&mut s, q, &queries[q].key, row);
                 }
             },
         )?;

@@ -34,7 +34,7 @@ impl NormalKdTree {
             k,
             threads,
             || KBest::new(k),
-            |best, q, row| {
+            |best, _, q, row| {
                 self.k_nearest_key(q, &gate, best, row);
             },
         )

@@ -51,8 +51,65 @@ impl NormalKdTree {
             1,
             threads,
             || (),
-            |_, q, row| {
+            |_, _, q, row| {
                 row[0] = self.nearest_key(q, &gate);
+            },
+        )
+    }
+
+    /// The nearest key of each query among those strictly nearer than its own bound
+    /// `within[i]` (a 6-D distance, +∞ for none), or none (index −1) where no key is; no
+    /// gate. For a search over part of a cloud bounded by the nearest key already found in
+    /// the rest: it looks only where a nearer key can be, which costs little when most
+    /// queries lie far from this part.
+    ///
+    /// # Errors
+    /// As [`NormalKdTree::query`]; [`KdTreeError::LengthMismatch`] when `within` does not
+    /// have one bound per query and [`KdTreeError::BadParameter`] for a NaN or negative
+    /// bound.
+    pub fn query_within(
+        &self,
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        within: &[f64],
+        threads: Option<usize>,
+    ) -> Result<Vec<Neighbor>, KdTreeError> {
+        if within.len() != points.len() {
+            return Err(KdTreeError::LengthMismatch {
+                array: "within",
+                got: within.len(),
+                expected_from: "query points",
+                expected: points.len(),
+            });
+        }
+        if let Some(&bad) = within.iter().find(|b| b.is_nan() || **b < 0.0) {
+            return Err(KdTreeError::BadParameter {
+                name: "within",
+                requirement: "a non-negative distance or +inf",
+                value: bad,
+            });
+        }
+        let threads = hullcap_core::resolve_threads(threads);
+        let (queries, _) = self.batch_queries(points, normals, &Gate::default(), threads)?;
+        self.answer_batch(
+            &queries,
+            1,
+            threads,
+            || (),
+            |_, i, q, row| {
+                let mut best = Best {
+                    dist2: within[i] * within[i],
+                    slot: u32::MAX,
+                };
+                self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
+                row[0] = if best.slot == u32::MAX {
+                    Neighbor::NONE
+                } else {
+                    Neighbor {
+                        index: i64::from(self.order[best.slot as usize]),
+                        distance: best.dist2.sqrt(),
+                    }
+                };
             },
         )
     }
@@ -163,6 +220,64 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// A bounded query finds the brute-force nearest key when it lies strictly within
+    /// the query's bound, and nothing otherwise.
+    #[test]
+    fn bounded_queries_match_brute_force_within_their_bounds() {
+        let mut rng = crate::testing::Rng::new(9);
+        for (n, seed) in [(1, 21), (40, 22), (3000, 23)] {
+            let (p, pn) = random_cloud(n, seed);
+            let (q, qn) = random_cloud(600, seed + 100);
+            let tree = NormalKdTree::build(&p, &pn, &BuildOptions::default()).unwrap();
+            let nearest: Vec<Neighbor> = (0..q.len())
+                .map(|i| brute_nearest(&tree, &q[i], &qn[i], &Gate::default()))
+                .collect();
+            // Bounds around each query's nearest distance, exactly at it, and unbounded.
+            let within: Vec<f64> = nearest
+                .iter()
+                .enumerate()
+                .map(|(i, nb)| match i % 4 {
+                    0 => nb.distance,
+                    1 => f64::INFINITY,
+                    _ => nb.distance * (1.0 + 0.5 * rng.signed()),
+                })
+                .collect();
+            let got = tree.query_within(&q, &qn, &within, Some(2)).unwrap();
+            let mut found = 0;
+            for (i, (g, want)) in got.iter().zip(&nearest).enumerate() {
+                if i % 4 == 0 {
+                    // Exactly at the bound, rounding decides: the nearest key or none.
+                    assert!(
+                        *g == Neighbor::NONE || g.distance == want.distance,
+                        "n {n}, query {i}"
+                    );
+                } else if want.distance < within[i] {
+                    assert_eq!(g.distance, want.distance, "n {n}, query {i}");
+                    found += 1;
+                } else {
+                    assert_eq!(*g, Neighbor::NONE, "n {n}, query {i}, bound {}", within[i]);
+                }
+            }
+            assert!(found > q.len() / 4 && found < q.len(), "{found}");
+        }
+        let tree =
+            NormalKdTree::build(&[[0.0; 3]], &[[0.0, 0.0, 1.0]], &BuildOptions::default()).unwrap();
+        let one = ([[1.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]]);
+        assert!(matches!(
+            tree.query_within(&one.0, &one.1, &[], None),
+            Err(KdTreeError::LengthMismatch {
+                array: "within",
+                ..
+            })
+        ));
+        for bad in [f64::NAN, -1.0] {
+            assert!(matches!(
+                tree.query_within(&one.0, &one.1, &[bad], None),
+                Err(KdTreeError::BadParameter { name: "within", .. })
+            ));
         }
     }
 
