@@ -38,6 +38,8 @@ def test_each_kind_of_fault_raises_its_own_class(tmp_path):
         hullcap.TrackerOptions(voxel_size=0)
     with pytest.raises(errors.OptionsError, match="FitOptions.solver"):
         hullcap.FitOptions().replace(solver="newton")
+    with pytest.raises(errors.OptionsError, match="FitOptions.coarse"):
+        hullcap.FitOptions().replace(coarse=0)
 
 
 def test_engine_errors_arrive_as_their_kind():

@@ -234,6 +234,10 @@ class FitOptions:
     rounds: int
     hierarchical: bool
     polish: bool
+    coarse: int
+    """Coarse to fine: the hierarchy's stages pair every ``coarse``-th model point and a
+    ``coarse``-th of the hull samples and reverse vertices; the final polish and the
+    statistics use them all (1 = every stage on every point; hierarchical fits only)."""
     inlier_distance: float
     threads: int | None
     def __init__(self, **changes: object) -> None: ...

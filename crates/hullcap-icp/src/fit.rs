@@ -98,18 +98,35 @@ pub fn fit_with_prior(
     };
     let mut params = initial.clone();
     rig.skeleton().clamp(&mut params.theta);
-    let mut fitter = Fitter {
-        problem: Problem {
-            rig,
-            target,
-            kind: options.residual,
-            threads: resolve_threads(options.threads),
-        },
+    let problem = Problem {
+        rig,
+        target,
+        kind: options.residual,
+        threads: resolve_threads(options.threads),
+    };
+    let fitter = |model_points, options| Fitter {
+        problem: Problem { ..problem },
         model_points,
         options,
         prior,
         iterations: 0,
         kept: None,
+    };
+    let coarse = options.hierarchical && options.coarse > 1;
+    let (coarse_points, coarse_options) = if coarse {
+        let points: Vec<u32> = model_points
+            .iter()
+            .step_by(options.coarse)
+            .copied()
+            .collect();
+        (points, options.coarsened())
+    } else {
+        (vec![], options.clone())
+    };
+    let mut staged = if coarse {
+        fitter(&coarse_points[..], &coarse_options)
+    } else {
+        fitter(model_points, options)
     };
     let mut previous = f64::INFINITY;
     let mut last = None;
@@ -122,9 +139,9 @@ pub fn fit_with_prior(
     while rounds < max_rounds {
         rounds += 1;
         for stage in &stages {
-            fitter.stage(&mut params, stage)?;
+            staged.stage(&mut params, stage)?;
         }
-        let stats = fitter.evaluate(&params)?;
+        let stats = staged.evaluate(&params)?;
         let settled =
             (previous - stats.energy).abs() <= options.tolerance * stats.energy.max(1e-12);
         previous = stats.energy;
@@ -133,19 +150,28 @@ pub fn fit_with_prior(
             break;
         }
     }
+    let mut iterations = staged.iterations;
+    let mut fine = if coarse {
+        last = None; // the statistics are those of every point
+        fitter(model_points, options)
+    } else {
+        staged
+    };
     if options.hierarchical && options.polish {
         let all: Vec<usize> = (0..6 + n_dofs).collect();
-        fitter.stage(&mut params, &all)?;
+        let before = fine.iterations;
+        fine.stage(&mut params, &all)?;
+        iterations += fine.iterations - before;
         last = None; // the pose moved: evaluate it afresh
     }
     let stats = match last {
         Some(stats) => stats,
-        None => fitter.evaluate(&params)?,
+        None => fine.evaluate(&params)?,
     };
     Ok((
         params,
         FitStats {
-            iterations: fitter.iterations,
+            iterations,
             rounds,
             ..stats
         },
@@ -536,6 +562,22 @@ mod tests {
         assert!(stats.iterations > 0);
     }
 
+    /// Stages on every third point, then the polish on all of them, recover the pose as
+    /// well; the statistics count every model point.
+    #[test]
+    fn coarse_stages_then_every_point_recover_it_too() {
+        let stats = recovers(&FitOptions {
+            coarse: 3,
+            rounds: 50,
+            iterations: 20,
+            tolerance: 1e-6,
+            ..FitOptions::default()
+        });
+        let points: u32 = stats.links.iter().map(|c| c.points).sum();
+        assert_eq!(points as usize, tube().n_vertices());
+        assert!(stats.iterations > 0);
+    }
+
     /// The sums over pairs are made block by block whatever the number of threads, so a fit
     /// (two-sided, several rounds) is the same to the last bit on 1, 2 or 3 threads.
     #[test]
@@ -795,14 +837,21 @@ mod tests {
             fit(&rig, &target, &points, &start, &[vec![7]], &opts),
             Err(IcpError::BadIndex { what: "DOF", .. })
         ));
-        let bad = FitOptions {
-            sigma_min: 0.0,
-            ..FitOptions::default()
-        };
-        assert!(matches!(
-            fit(&rig, &target, &points, &start, &[], &bad),
-            Err(IcpError::BadParameter { .. })
-        ));
+        for bad in [
+            FitOptions {
+                sigma_min: 0.0,
+                ..FitOptions::default()
+            },
+            FitOptions {
+                coarse: 0,
+                ..FitOptions::default()
+            },
+        ] {
+            assert!(matches!(
+                fit(&rig, &target, &points, &start, &[], &bad),
+                Err(IcpError::BadParameter { .. })
+            ));
+        }
         start.theta.pop();
         assert!(matches!(
             fit(&rig, &target, &points, &start, &[], &opts),

@@ -63,6 +63,12 @@ pub struct FitOptions {
     /// stages crawl along valleys where the root and a joint trade off (a zig-zag of
     /// tiny steps); a joint Gauss–Newton step crosses them. Off = the paper's schedule.
     pub polish: bool,
+    /// Coarse to fine: the hierarchy's stages pair every `coarse`-th model point, and a
+    /// `coarse`-th of the hull samples and of the vertices they seek among; the polish and
+    /// the statistics use them all. The stages only bring each part near its minimum,
+    /// which half the points find as well at about half the cost, and the polish then
+    /// settles it on every point. 1 = every stage on every point. Hierarchical fits only.
+    pub coarse: usize,
     /// Distance (m) under which a pair counts as an inlier in the statistics.
     pub inlier_distance: f64,
     /// Worker threads (`None` = all cores).
@@ -87,6 +93,7 @@ impl Default for FitOptions {
             rounds: 4,
             hierarchical: true,
             polish: true,
+            coarse: 1,
             inlier_distance: 0.02,
             threads: None,
         }
@@ -94,6 +101,16 @@ impl Default for FitOptions {
 }
 
 impl FitOptions {
+    /// These options for the coarse stages (see [`FitOptions::coarse`]): a `coarse`-th of
+    /// the hull samples and of the vertices they seek among.
+    pub(crate) fn coarsened(&self) -> FitOptions {
+        FitOptions {
+            reverse_points: (self.reverse_points / self.coarse).max(1),
+            reverse_vertices: (self.reverse_vertices / self.coarse).max(1),
+            ..self.clone()
+        }
+    }
+
     /// Checks every number against its range.
     pub fn validate(&self) -> Result<(), IcpError> {
         let bad = |name, requirement, value| {
@@ -126,6 +143,7 @@ impl FitOptions {
             ("rounds", self.rounds),
             ("reverse_points", self.reverse_points),
             ("reverse_vertices", self.reverse_vertices),
+            ("coarse", self.coarse),
         ] {
             if value == 0 {
                 return bad(name, "at least 1", 0.0);

@@ -26,6 +26,7 @@ pub(crate) struct FitOptions {
     rounds: usize,
     hierarchical: bool,
     polish: bool,
+    coarse: usize,
     inlier_distance: f64,
     threads: Option<usize>,
 }
@@ -53,6 +54,7 @@ impl Default for FitOptions {
             rounds: e.rounds,
             hierarchical: e.hierarchical,
             polish: e.polish,
+            coarse: e.coarse,
             inlier_distance: e.inlier_distance,
             threads: e.threads,
         }
@@ -115,6 +117,7 @@ impl FitOptions {
             rounds: self.rounds,
             hierarchical: self.hierarchical,
             polish: self.polish,
+            coarse: self.coarse,
             inlier_distance: self.inlier_distance,
             threads: self.threads,
         };
@@ -145,6 +148,7 @@ impl FitOptions {
         d.set_item("rounds", self.rounds)?;
         d.set_item("hierarchical", self.hierarchical)?;
         d.set_item("polish", self.polish)?;
+        d.set_item("coarse", self.coarse)?;
         d.set_item("inlier_distance", self.inlier_distance)?;
         d.set_item("threads", self.threads)?;
         Ok(d)
