@@ -8,7 +8,8 @@ starts from the hull instead:
    (arms down, arms up, a crouch, either leg raised), each turned to several headings
    about the vertical and moved so that its centroid lies on the hull's;
 2. all candidates scored at once by the engine (how much of the hull each explains both
-   ways, without fitting), the best few fitted in full;
+   ways, without fitting, at the resolution of the fit's stages), the best few fitted in
+   full;
 3. each limb chain of the best fit re-sampled on its own (joint angles drawn within their
    limits, the rest of the body held), scored, and the best sample fitted when it explains
    more of the hull.
@@ -128,6 +129,12 @@ class PoseSearch:
                  seed: int = 0):
         self.model = model
         self.fit_options = fit_options
+        # Candidates are ranked at the resolution of the fit's stages (FitOptions.coarse):
+        # the ranking only chooses what to fit, and the fits compare in full.
+        c = fit_options.coarse
+        self._rank_options = fit_options.replace(model_points=max(1, fit_options.model_points // c),
+                                                 reverse_points=max(1, fit_options.reverse_points // c),
+                                                 reverse_vertices=max(1, fit_options.reverse_vertices // c))
         self.options = options or SearchOptions()
         self._rng = np.random.default_rng(seed)
         self._canonical = [_angles(model, spec) for spec in CANONICAL_POSES.values()]
@@ -225,7 +232,7 @@ class PoseSearch:
     def _rank(self, target, poses: list[PoseParameters]) -> list[PoseParameters]:
         stats = _engine.evaluate(self.model._rig, target, [np.asarray(p.theta, float).tolist() for p in poses],
                                  [np.asarray(p.root_rotation, float) for p in poses],
-                                 [np.asarray(p.root_translation, float) for p in poses], self.fit_options)
+                                 [np.asarray(p.root_translation, float) for p in poses], self._rank_options)
         order = np.argsort([-quality(s) for s in stats], kind="stable")
         return [poses[i] for i in order]
 
