@@ -105,7 +105,7 @@ pub fn fit_with_prior(
         threads: resolve_threads(options.threads),
     };
     let fitter = |model_points, options| Fitter {
-        problem: Problem { ..problem },
+        problem,
         model_points,
         options,
         prior,
@@ -113,18 +113,15 @@ pub fn fit_with_prior(
         kept: None,
     };
     let coarse = options.hierarchical && options.coarse > 1;
-    let (coarse_points, coarse_options) = if coarse {
-        let points: Vec<u32> = model_points
+    let (coarse_points, coarse_options): (Vec<u32>, FitOptions);
+    let mut staged = if coarse {
+        coarse_points = model_points
             .iter()
             .step_by(options.coarse)
             .copied()
             .collect();
-        (points, options.coarsened())
-    } else {
-        (vec![], options.clone())
-    };
-    let mut staged = if coarse {
-        fitter(&coarse_points[..], &coarse_options)
+        coarse_options = options.coarsened();
+        fitter(&coarse_points, &coarse_options)
     } else {
         fitter(model_points, options)
     };

@@ -175,6 +175,7 @@ const PAIRS_PER_SUM: usize = 256;
 
 /// What every pass over the model points needs: the rig, the target, the residual kind
 /// and the number of threads.
+#[derive(Clone, Copy)]
 pub(crate) struct Problem<'a> {
     pub rig: &'a Rig,
     pub target: &'a Target,
@@ -248,9 +249,10 @@ impl Problem<'_> {
             let every = spread(self.rig.n_vertices(), options.reverse_vertices);
             let vertices = self.posed_points(pose, root, &every)?;
             let samples = self.target.samples(options.reverse_points);
+            let (sp, sn) = self.sample_keys(&samples);
             let found = self.vertex_tree(&vertices)?.query(
-                &self.sample_points(&samples),
-                &self.sample_normals(&samples),
+                &sp,
+                &sn,
                 &Gate::default(),
                 Some(self.threads),
             )?;
@@ -308,20 +310,17 @@ impl Problem<'_> {
         )?)
     }
 
-    /// The positions of the target points `samples`.
-    pub(crate) fn sample_points(&self, samples: &[u32]) -> Vec<[f64; 3]> {
+    /// The positions and normals of the target points `samples`.
+    pub(crate) fn sample_keys(&self, samples: &[u32]) -> PosedPoints {
         samples
             .iter()
-            .map(|&k| self.target.points[k as usize])
-            .collect()
-    }
-
-    /// The normals of the target points `samples`.
-    pub(crate) fn sample_normals(&self, samples: &[u32]) -> Vec<[f64; 3]> {
-        samples
-            .iter()
-            .map(|&k| self.target.normals[k as usize])
-            .collect()
+            .map(|&k| {
+                (
+                    self.target.points[k as usize],
+                    self.target.normals[k as usize],
+                )
+            })
+            .unzip()
     }
 
     /// Adds the hull→model pairs to `out`: each hull sample of `samples` with its

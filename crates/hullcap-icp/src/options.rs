@@ -66,8 +66,8 @@ pub struct FitOptions {
     /// Coarse to fine: the hierarchy's stages pair every `coarse`-th model point, and a
     /// `coarse`-th of the hull samples and of the vertices they seek among; the polish and
     /// the statistics use them all. The stages only bring each part near its minimum,
-    /// which half the points find as well at about half the cost, and the polish then
-    /// settles it on every point. 1 = every stage on every point. Hierarchical fits only.
+    /// which fewer points find as well for less, and the polish then settles it on every
+    /// point. 1 = every stage on every point. Hierarchical fits only.
     pub coarse: usize,
     /// Distance (m) under which a pair counts as an inlier in the statistics.
     pub inlier_distance: f64,

@@ -14,7 +14,7 @@
 use crate::fit::{FitStats, Params, statistics};
 use crate::normal_equations::{PosedPoints, Problem, robust_sigma, spread};
 use crate::{FitOptions, IcpError};
-use hullcap_body::Rig;
+use hullcap_body::{Rig, RootPose, SkeletonPose};
 use hullcap_kdtree::Neighbor;
 
 /// Per rig vertex, whether it can move between `poses`; `None` unless all poses share the
@@ -66,8 +66,10 @@ struct Held {
     samples: Vec<u32>,
     /// The samples' positions and normals.
     sample_keys: PosedPoints,
-    /// Each hull sample's nearest unmoved vertex (an index into `every`).
+    /// Each hull sample's nearest unmoved vertex (an index into `every`), and how far it
+    /// lies: a moved vertex is sought only nearer than that.
     nearest_held: Vec<Neighbor>,
+    held_distance: Vec<f64>,
 }
 
 /// The statistics of each of `poses`, as [`crate::evaluate_poses`] gives them, where
@@ -122,10 +124,7 @@ fn hold(
     let moving_vertices = positions(&every, |v| moving[v]);
     let held_vertices = positions(&every, |v| !moving[v]);
     let samples = problem.target.samples(options.reverse_points);
-    let sample_keys = (
-        problem.sample_points(&samples),
-        problem.sample_normals(&samples),
-    );
+    let sample_keys = problem.sample_keys(&samples);
     let unbounded = vec![f64::INFINITY; samples.len()];
     let nearest_held = nearest_among(problem, &vertices, &held_vertices, &sample_keys, &unbounded)?;
     Ok(Held {
@@ -137,6 +136,7 @@ fn hold(
         moving_vertices,
         samples,
         sample_keys,
+        held_distance: nearest_held.iter().map(|nb| nb.distance).collect(),
         nearest_held,
     })
 }
@@ -150,43 +150,43 @@ fn evaluate_variant(
 ) -> Result<FitStats, IcpError> {
     let pose = problem.rig.skeleton().forward(&params.theta)?;
     let root = &params.root;
-    let (mut points, mut found) = (held.points.clone(), held.found.clone());
-    let moved: Vec<u32> = held
-        .moving_points
-        .iter()
-        .map(|&k| model_points[k])
-        .collect();
-    let (p, n) = problem.posed_points(&pose, root, &moved)?;
+    let mut points = held.points.clone();
+    let (p, n) = repose(
+        problem,
+        &pose,
+        root,
+        model_points,
+        &held.moving_points,
+        &mut points,
+    )?;
     let partners = problem.target.tree.query(&p, &n, &options.gate, Some(1))?;
-    for (i, &k) in held.moving_points.iter().enumerate() {
-        (points.0[k], points.1[k], found[k]) = (p[i], n[i], partners[i]);
+    let mut found = held.found.clone();
+    for (&k, partner) in held.moving_points.iter().zip(partners) {
+        found[k] = partner;
     }
     let mut pairs = problem.forward_pairs(model_points, &points.0, &found);
 
     let mut vertices = held.vertices.clone();
-    let moved: Vec<u32> = held
-        .moving_vertices
-        .iter()
-        .map(|&k| held.every[k])
-        .collect();
-    let (p, n) = problem.posed_points(&pose, root, &moved)?;
-    for (i, &k) in held.moving_vertices.iter().enumerate() {
-        (vertices.0[k], vertices.1[k]) = (p[i], n[i]);
-    }
-    // A moved vertex counts only where it is nearer than the sample's nearest held one.
-    let bounds: Vec<f64> = held.nearest_held.iter().map(|nb| nb.distance).collect();
+    repose(
+        problem,
+        &pose,
+        root,
+        &held.every,
+        &held.moving_vertices,
+        &mut vertices,
+    )?;
     let nearer = nearest_among(
         problem,
         &vertices,
         &held.moving_vertices,
         &held.sample_keys,
-        &bounds,
+        &held.held_distance,
     )?;
     let nearest: Vec<Neighbor> = held
         .nearest_held
         .iter()
         .zip(&nearer)
-        .map(|(a, b)| if b.index >= 0 { *b } else { *a })
+        .map(|(unmoved, moved)| if moved.index >= 0 { *moved } else { *unmoved })
         .collect();
     problem.add_reverse_pairs(
         &mut pairs,
@@ -199,6 +199,24 @@ fn evaluate_variant(
     );
     let sigma = robust_sigma(&pairs.forward, options.sigma_min);
     statistics(problem, model_points, root, &pose, &pairs, sigma, options)
+}
+
+/// The points `indices[k]`, for each k of `at`, posed at (`pose`, `root`) and written over
+/// their places in `posed`; returns them as posed.
+fn repose(
+    problem: &Problem<'_>,
+    pose: &SkeletonPose,
+    root: &RootPose,
+    indices: &[u32],
+    at: &[usize],
+    posed: &mut PosedPoints,
+) -> Result<PosedPoints, IcpError> {
+    let chosen: Vec<u32> = at.iter().map(|&k| indices[k]).collect();
+    let (p, n) = problem.posed_points(pose, root, &chosen)?;
+    for (i, &k) in at.iter().enumerate() {
+        (posed.0[k], posed.1[k]) = (p[i], n[i]);
+    }
+    Ok((p, n))
 }
 
 /// The positions in `indices` of the vertices `keep` says yes to.
