@@ -139,7 +139,9 @@ class TrackerOptions:
             over the hierarchy's stages. With one, the poses of the demo's window moved
             the knee search's best gain from 0.00187 to 0.00201, over its threshold
             (``SubjectOptions.centre_min_gain``, 0.002), and the knees of our own
-            template 2 cm off (demo 8.1 mm against 5.2).
+            template 2 cm off (demo 8.1 mm against 5.2). Nor are its stages coarse
+            (``coarse=1``): with every second point there, the knee search moved d02's
+            knee 3 cm the wrong way from colour frames (thigh −7 %, shin +7 %).
         quality_window: the accepted frames (most recent) whose median quality is the
             reference a new frame is judged against.
         quality_margin: a fit passes without a search when its quality is at most this far
