@@ -141,17 +141,18 @@ def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, 
     assert accuracy(result, seq_dir).mean_mm < 30
 
 
-def test_reading_ahead_on_a_second_thread_changes_nothing(short_sequence, tmp_path):
+def test_other_threads_change_nothing(short_sequence, tmp_path, monkeypatch):
     """From colour frames (guided silhouettes), one image broken: the run that decodes and
-    subtracts the next frames on a second thread gives the same joints and problems as
-    the run that reads each frame when it is tracked."""
+    subtracts the next frames on a second thread and treats each frame's views on two
+    gives the same joints and problems as the run that does everything on one thread."""
     seq_dir = tmp_path / "seq"
     shutil.copytree(short_sequence, seq_dir)
     (seq_dir / "frames" / "cam1" / "000003.png").write_bytes(b"not a png")
     seq = Sequence(seq_dir)
     model = BodyModel.load(seq_dir / "truth" / "model")
     runs = []
-    for read_ahead in (0, 2):
+    for read_ahead, threads in ((0, "1"), (2, "2")):
+        monkeypatch.setenv("HULLCAP_THREADS", threads)
         tracker = Tracker(seq, model, TrackerOptions(use_silhouettes=False, read_ahead=read_ahead, refine_joints=False))
         result = tracker.run(tmp_path / f"out{read_ahead}", show_progress=False, frames=8)
         runs.append((result, [str(p) for p in tracker.problems]))
@@ -222,3 +223,22 @@ def test_subject_model_is_built_from_the_first_hull(short_sequence, rest_mesh):
         assert len(subject.model.vertices) == len(BodyModel.template().vertices)
     with pytest.raises(ValueError, match="rest_mesh must be"):
         SubjectOptions(rest_mesh="clay")
+
+
+def test_views_side_by_side_keep_their_order_and_errors(monkeypatch):
+    from hullcap._threads import over_views, view_threads
+
+    monkeypatch.setenv("HULLCAP_THREADS", "3")
+    assert view_threads() == 3
+    assert over_views(lambda x: x * x, range(10)) == [x * x for x in range(10)]
+
+    def broken(x):
+        if x == 4:
+            raise ValueError("view 4")
+        return x
+
+    with pytest.raises(ValueError, match="view 4"):
+        over_views(broken, range(8))
+    for value in ("0", "two", ""):
+        monkeypatch.setenv("HULLCAP_THREADS", value)
+        assert view_threads() >= 1

@@ -25,6 +25,7 @@ from hullcap._cameras import Cameras
 from hullcap._engine import carve, gaussian_blur, isosurface
 from hullcap._mesh import Surface
 from hullcap._silhouette import signed_distance
+from hullcap._threads import over_views
 from hullcap.errors import CalibrationError, HullError
 
 __all__ = ["visual_hull", "capture_volume", "axes_meeting_point", "check_bounds", "format_bounds", "HullReport"]
@@ -117,7 +118,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         raise HullError(f"{len(priors)} priors for {len(cameras)} cameras")
     if tolerance < 0:
         raise HullError(f"tolerance must be >= 0, got {tolerance}")
-    views = []
+    seen = []
     for i, (cam, m) in enumerate(zip(cameras, masks)):
         m = np.asarray(m)
         if m.shape != (cam.height, cam.width):
@@ -128,7 +129,8 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         prior = None if priors is None else np.asarray(priors[i])
         if prior is not None and prior.shape != m.shape:
             raise HullError(f"camera {cam.name!r}: prior is {prior.shape[::-1]} pixels, the mask {m.shape[::-1]}")
-        views.append(_carving_view(cam, m, prior))
+        seen.append((cam, m, prior))
+    views = over_views(lambda view: _carving_view(*view), seen)
     if not views:
         raise HullError("every mask is empty: nothing to carve")
     if report.skipped:

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hullcap._ahead import ReadAhead
+from hullcap._threads import ReadAhead, over_views
 from hullcap._body import BodyModel
 from hullcap._files import atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
@@ -187,7 +187,7 @@ class TrackerOptions:
             (docs/accuracy.md); the fold it guards against came once, in one run.
         motion_prior_distance: metres of pair distance one `motion_sigma` is worth.
         read_ahead: frames decoded and put through the background test on a second
-            thread while the engine fits the frame before (:mod:`hullcap._ahead`); 0
+            thread while the engine fits the frame before (:mod:`hullcap._threads`); 0
             reads each frame when it is tracked. The results are the same either way.
     """
 
@@ -273,6 +273,13 @@ class Tracker:
         say so."""
         t0 = time.perf_counter()
         inputs = self._ahead.take(frame) if self._ahead is not None else self._inputs(frame)
+
+        def segmented(i: int) -> np.ndarray:
+            view = inputs[i]
+            return self._guided[i].mask(view.image, None if priors is None else priors[i], view.evidence)
+
+        to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
+        segmented_masks = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks = []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
             if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
@@ -281,7 +288,7 @@ class Tracker:
             elif view.mask is not None:
                 masks.append(view.mask)
             else:
-                masks.append(self._guided[i].mask(view.image, None if priors is None else priors[i], view.evidence))
+                masks.append(segmented_masks[i])
         self.seconds["silhouettes"] += time.perf_counter() - t0
         return masks
 
@@ -342,7 +349,7 @@ class Tracker:
     def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
         """The model's (H, W) bool silhouette at `pose` in every view."""
         v = model.pose(pose.theta, pose.root_rotation, pose.root_translation).vertices
-        return [render_depth(cam, v, model.faces)[1] >= 0 for cam in self.sequence.cameras]
+        return over_views(lambda cam: render_depth(cam, v, model.faces)[1] >= 0, self.sequence.cameras)
 
     def _guides(self) -> bool:
         """Whether silhouettes are guided by the model."""
@@ -379,7 +386,7 @@ class Tracker:
         t0 = time.perf_counter()
         report = HullReport()
         priors = None if silhouettes is None or tolerance == 0 else \
-            [dilated(s, self.options.guidance.band) for s in silhouettes]
+            over_views(lambda s: dilated(s, self.options.guidance.band), silhouettes)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`

@@ -1,19 +1,50 @@
-"""Work done ahead on a second thread: while the engine fits frame t (without the GIL),
-frame t + 1 is decoded and put through the per-pixel background test, which OpenCV and
-NumPy also do without the GIL, so that the two cores work at once.
+"""Work on other threads, so that both cores work at once: OpenCV, NumPy and the engine
+do their work without the GIL.
 
-Only what does not depend on the fit of frame t may run ahead; the results are those of
-the same calls made in order (tests/test_tracking.py checks a run with and without).
+- Ahead: while the engine fits frame t, frame t + 1 is decoded and put through the
+  per-pixel background test on a second thread (:class:`ReadAhead`). Only what does not
+  depend on the fit of frame t may run ahead.
+- Side by side: a frame's views, each independent of the others (the prediction drawn
+  into it, its guided mask), are processed on a few threads (:func:`over_views`).
+
+The results are those of the same calls made in order, one after another
+(tests/test_tracking.py checks a run with and without).
 """
 
 from __future__ import annotations
 
+import os
 import queue
 import threading
 import time
 from collections.abc import Callable, Iterable
+from concurrent.futures import ThreadPoolExecutor
 
-__all__ = ["ReadAhead"]
+__all__ = ["ReadAhead", "over_views", "view_threads"]
+
+_pools: dict[int, ThreadPoolExecutor] = {}
+
+
+def view_threads() -> int:
+    """Threads for a frame's views: ``$HULLCAP_THREADS`` when it is a positive number
+    (as for the engine), else every core."""
+    value = os.environ.get("HULLCAP_THREADS", "").strip()
+    if value.isdigit() and int(value) > 0:
+        return int(value)
+    return os.cpu_count() or 1
+
+
+def over_views(work: Callable, items: Iterable) -> list:
+    """``[work(item) for item in items]``, the items shared among :func:`view_threads`
+    threads; the first exception of `work` is raised here."""
+    items = list(items)
+    threads = min(view_threads(), len(items))
+    if threads <= 1:
+        return [work(item) for item in items]
+    pool = _pools.get(threads)
+    if pool is None:
+        pool = _pools[threads] = ThreadPoolExecutor(threads, thread_name_prefix="hullcap-views")
+    return list(pool.map(work, items))
 
 
 class ReadAhead:
