@@ -41,7 +41,6 @@ from pathlib import Path
 
 import numpy as np
 
-from hullcap._threads import ReadAhead, over_views
 from hullcap._body import BodyModel
 from hullcap._files import atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
@@ -55,6 +54,7 @@ from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outp
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
 from hullcap._subject import SubjectOptions, bent_frames, build_subject, place_model, search_centres
+from hullcap._threads import ReadAhead, over_views
 from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -99,9 +99,8 @@ class TrackerOptions:
             every second model point (``coarse=2``) and the final fit of everything
             together all of them: on 104 development-set frames fitted from the tracked
             predictions that took 45 ms a fit instead of 60, to the same joint error. The
-            search uses it,
-            and so does tracking unless `quick_fit` is set; the first seconds tracked for
-            the subject's model use `calibration_fit`.
+            search uses it, and so does tracking unless `quick_fit` is set; the first
+            seconds tracked for the subject's model use `calibration_fit`.
         quick_fit: when set, the fit from each start (the prediction, the last pose, the
             girdle start) instead of `fit`; for speed, every parameter at once
             (:func:`quick_fit_options`). A frame away the hierarchy's stages mostly buy
