@@ -295,10 +295,22 @@ pub fn evaluate_poses(
         };
         return evaluate_variants(&problem, model_points, poses, &moving, options);
     }
+    per_pose(poses, threads, |params| {
+        evaluate(rig, target, model_points, params, options, 1)
+    })
+}
+
+/// `evaluate(pose)` for each of `poses`, spread over `threads` threads, one pose per
+/// thread at a time; the first error stands for all.
+pub(crate) fn per_pose(
+    poses: &[Params],
+    threads: usize,
+    evaluate: impl Fn(&Params) -> Result<FitStats, IcpError> + Sync,
+) -> Result<Vec<FitStats>, IcpError> {
     let mut out: Vec<Option<Result<FitStats, IcpError>>> = vec![None; poses.len()];
     hullcap_core::for_each_chunk_mut(&mut out, threads, 1, |offset, chunk| {
         for (slot, params) in chunk.iter_mut().zip(&poses[offset..]) {
-            *slot = Some(evaluate(rig, target, model_points, params, options, 1));
+            *slot = Some(evaluate(params));
         }
     })?;
     out.into_iter()

@@ -11,7 +11,7 @@
 //! sample exactly as far from two vertices in the 6-D key space might be given the other
 //! of the two (a full search takes whichever its tree meets first).
 
-use crate::fit::{FitStats, Params, statistics};
+use crate::fit::{FitStats, Params, per_pose, statistics};
 use crate::normal_equations::{PosedPoints, Problem, robust_sigma, spread};
 use crate::{FitOptions, IcpError};
 use hullcap_body::{Rig, RootPose, SkeletonPose};
@@ -87,21 +87,9 @@ pub(crate) fn evaluate_variants(
         threads: 1,
         ..*problem
     };
-    let mut out: Vec<Option<Result<FitStats, IcpError>>> = vec![None; poses.len()];
-    hullcap_core::for_each_chunk_mut(&mut out, problem.threads, 1, |offset, chunk| {
-        for (slot, params) in chunk.iter_mut().zip(&poses[offset..]) {
-            *slot = Some(evaluate_variant(&one, model_points, &held, params, options));
-        }
-    })?;
-    out.into_iter()
-        .map(|r| {
-            r.unwrap_or(Err(IcpError::BadParameter {
-                name: "poses",
-                requirement: "all evaluated",
-                value: 0.0,
-            }))
-        })
-        .collect()
+    per_pose(poses, problem.threads, |params| {
+        evaluate_variant(&one, model_points, &held, params, options)
+    })
 }
 
 fn hold(
