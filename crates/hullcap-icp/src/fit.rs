@@ -138,6 +138,9 @@ pub fn fit_with_prior(
         for stage in &stages {
             staged.stage(&mut params, stage)?;
         }
+        if coarse && rounds == max_rounds {
+            break; // no round follows, and the polish and statistics use every point
+        }
         let stats = staged.evaluate(&params)?;
         let settled =
             (previous - stats.energy).abs() <= options.tolerance * stats.energy.max(1e-12);
