@@ -133,3 +133,19 @@ def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
     search = PoseSearch(model, options)
     assert search.same_arm_lines(plain.pose, girdle.pose)  # the same arms, reached another way
     assert not search.same_arm_lines(plain.pose, raised(0, 25))  # arms lowered 60°: the search's to find
+
+
+def test_a_search_ranks_at_the_resolution_of_the_stages():
+    """The tracker's fit pairs every second point in its stages; its search scores
+    candidates on as many."""
+    from hullcap._reacquire import PoseSearch
+
+    fit_options = TrackerOptions().fit
+    rank = PoseSearch(BodyModel.template(), fit_options)._rank_options
+    assert fit_options.coarse == 2 and rank.coarse == 1
+    assert (rank.model_points, rank.reverse_points, rank.reverse_vertices) == (
+        fit_options.model_points // 2, fit_options.reverse_points // 2, fit_options.reverse_vertices // 2)
+    assert rank.replace(model_points=fit_options.model_points) == fit_options.replace(
+        coarse=1, reverse_points=rank.reverse_points, reverse_vertices=rank.reverse_vertices)  # nothing else
+    whole = TrackerOptions().calibration_fit
+    assert PoseSearch(BodyModel.template(), whole)._rank_options == whole

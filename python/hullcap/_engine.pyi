@@ -12,9 +12,13 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize", "FitOptions",
-           "Target", "fit", "Shape", "fit_shape", "evaluate"]
+           "Target", "fit", "Shape", "fit_shape", "evaluate", "threads"]
 
 __version__: str
+
+def threads() -> int:
+    """The threads the engine runs on: ``$HULLCAP_THREADS`` when it is a positive number,
+    else every core."""
 
 ArrayLike3 = npt.ArrayLike
 """Anything NumPy turns into an (N, 3) array of real numbers."""
@@ -242,6 +246,10 @@ class FitOptions:
     threads: int | None
     def __init__(self, **changes: object) -> None: ...
     def replace(self, **changes: object) -> FitOptions: ...
+    def coarsened(self) -> FitOptions:
+        """These options at the resolution of the coarse stages: a ``coarse``-th of the
+        model points, hull samples and reverse vertices, and ``coarse`` 1; for scoring
+        many poses as those stages see them."""
     def to_dict(self) -> dict[str, object]: ...
 
 @final

@@ -131,10 +131,7 @@ class PoseSearch:
         self.fit_options = fit_options
         # Candidates are ranked at the resolution of the fit's stages (FitOptions.coarse):
         # the ranking only chooses what to fit, and the fits compare in full.
-        c = fit_options.coarse
-        self._rank_options = fit_options.replace(model_points=max(1, fit_options.model_points // c),
-                                                 reverse_points=max(1, fit_options.reverse_points // c),
-                                                 reverse_vertices=max(1, fit_options.reverse_vertices // c))
+        self._rank_options = fit_options.coarsened()
         self.options = options or SearchOptions()
         self._rng = np.random.default_rng(seed)
         self._canonical = [_angles(model, spec) for spec in CANONICAL_POSES.values()]

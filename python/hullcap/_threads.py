@@ -13,12 +13,13 @@ The results are those of the same calls made in order, one after another
 
 from __future__ import annotations
 
-import os
 import queue
 import threading
 import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import ThreadPoolExecutor
+
+from hullcap import _engine
 
 __all__ = ["ReadAhead", "over_views", "view_threads"]
 
@@ -26,12 +27,9 @@ _pools: dict[int, ThreadPoolExecutor] = {}
 
 
 def view_threads() -> int:
-    """Threads for a frame's views: ``$HULLCAP_THREADS`` when it is a positive number
-    (as for the engine), else every core."""
-    value = os.environ.get("HULLCAP_THREADS", "").strip()
-    if value.isdigit() and int(value) > 0:
-        return int(value)
-    return os.cpu_count() or 1
+    """Threads for a frame's views: as many as the engine runs on (``$HULLCAP_THREADS``
+    when it is a positive number, else every core)."""
+    return _engine.threads()
 
 
 def over_views(work: Callable, items: Iterable) -> list:

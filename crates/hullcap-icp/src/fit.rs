@@ -150,18 +150,15 @@ pub fn fit_with_prior(
             break;
         }
     }
-    let mut iterations = staged.iterations;
-    let mut fine = if coarse {
+    let (mut fine, coarse_iterations) = if coarse {
         last = None; // the statistics are those of every point
-        fitter(model_points, options)
+        (fitter(model_points, options), staged.iterations)
     } else {
-        staged
+        (staged, 0)
     };
     if options.hierarchical && options.polish {
         let all: Vec<usize> = (0..6 + n_dofs).collect();
-        let before = fine.iterations;
         fine.stage(&mut params, &all)?;
-        iterations += fine.iterations - before;
         last = None; // the pose moved: evaluate it afresh
     }
     let stats = match last {
@@ -171,7 +168,7 @@ pub fn fit_with_prior(
     Ok((
         params,
         FitStats {
-            iterations,
+            iterations: coarse_iterations + fine.iterations,
             rounds,
             ..stats
         },

@@ -103,7 +103,7 @@ impl Default for FitOptions {
 impl FitOptions {
     /// These options for the coarse stages (see [`FitOptions::coarse`]): a `coarse`-th of
     /// the hull samples and of the vertices they seek among.
-    pub(crate) fn coarsened(&self) -> FitOptions {
+    pub fn coarsened(&self) -> FitOptions {
         FitOptions {
             reverse_points: (self.reverse_points / self.coarse).max(1),
             reverse_vertices: (self.reverse_vertices / self.coarse).max(1),

@@ -97,37 +97,28 @@ impl NormalKdTree {
             threads,
             || (),
             |_, i, q, row| {
-                let mut best = Best {
-                    dist2: within[i] * within[i],
-                    slot: u32::MAX,
-                };
-                self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
-                row[0] = if best.slot == u32::MAX {
-                    Neighbor::NONE
-                } else {
-                    Neighbor {
-                        index: i64::from(self.order[best.slot as usize]),
-                        distance: best.dist2.sqrt(),
-                    }
-                };
+                row[0] = self.nearest_within(q, within[i] * within[i]).neighbor(self);
             },
         )
     }
 
     /// The nearest key to `q` (already a 6-D key), gated.
     pub(crate) fn nearest_key(&self, q: &Key, gate: &PreparedGate) -> Neighbor {
-        let mut best = Best {
-            dist2: gate.radius2,
-            slot: u32::MAX,
-        };
-        self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
+        let best = self.nearest_within(q, gate.radius2);
         if best.slot == u32::MAX || !gate.passes(q, &self.keys[best.slot as usize]) {
             return Neighbor::NONE;
         }
-        Neighbor {
-            index: i64::from(self.order[best.slot as usize]),
-            distance: best.dist2.sqrt(),
-        }
+        best.neighbor(self)
+    }
+
+    /// The nearest key to `q` strictly within the squared 6-D distance `radius2`.
+    fn nearest_within(&self, q: &Key, radius2: f64) -> Best {
+        let mut best = Best {
+            dist2: radius2,
+            slot: u32::MAX,
+        };
+        self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
+        best
     }
 }
 
@@ -136,6 +127,19 @@ struct Best {
     dist2: f64,
     /// Position in leaf order; `u32::MAX` = none found yet.
     slot: u32,
+}
+
+impl Best {
+    /// The key found as the caller's index and its distance; none when none was.
+    fn neighbor(self, tree: &NormalKdTree) -> Neighbor {
+        if self.slot == u32::MAX {
+            return Neighbor::NONE;
+        }
+        Neighbor {
+            index: i64::from(tree.order[self.slot as usize]),
+            distance: self.dist2.sqrt(),
+        }
+    }
 }
 
 impl Candidates for Best {

@@ -14,6 +14,13 @@ mod raster;
 
 use pyo3::prelude::*;
 
+/// The threads the engine runs on: `$HULLCAP_THREADS` when it is a positive number, else
+/// every core.
+#[pyfunction]
+fn threads() -> usize {
+    hullcap_core::resolve_threads(None)
+}
+
 /// The extension module; its name must match `module-name` in pyproject.toml.
 #[pymodule]
 fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -34,5 +41,6 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(icp::evaluate, m)?)?;
     m.add_class::<options::FitOptions>()?;
     m.add_class::<body::Shape>()?;
+    m.add_function(wrap_pyfunction!(threads, m)?)?;
     Ok(())
 }

@@ -182,6 +182,19 @@ impl FitOptions {
         Ok(obj.unbind())
     }
 
+    /// These options at the resolution of the coarse stages: a `coarse`-th of the model
+    /// points, hull samples and reverse vertices, and `coarse` 1 (see `_engine.pyi`).
+    fn coarsened(&self) -> PyResult<Self> {
+        let engine = self.engine()?.coarsened();
+        Ok(FitOptions {
+            model_points: (self.model_points / self.coarse).max(1),
+            reverse_points: engine.reverse_points,
+            reverse_vertices: engine.reverse_vertices,
+            coarse: 1,
+            ..self.clone()
+        })
+    }
+
     /// The fields as a dict.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         self.fields(py)
