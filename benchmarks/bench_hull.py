@@ -73,7 +73,7 @@ def devset_table(names, step: int) -> None:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import devset
     from hullcap._guided import GuidedSegmenter
-    from hullcap._render import render_depth
+    from hullcap._render import render_silhouette
     from hullcap._results import load_result
 
     where = devset.find()
@@ -90,7 +90,7 @@ def devset_table(names, step: int) -> None:
 
         def silhouettes(f):
             pose = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f], clamp=False)
-            return [render_depth(cam, pose.vertices, model.faces)[1] >= 0 for cam in seq.cameras]
+            return [render_silhouette(cam, pose.vertices, model.faces) for cam in seq.cameras]
 
         stat = [StatisticalBackground(seq.background(i)) for i in range(len(seq.cameras))]
         mog = [Mog2Background(seq.background(i)) for i in range(len(seq.cameras))]

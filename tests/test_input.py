@@ -11,7 +11,7 @@ from hullcap._cameras import ring
 from hullcap._hull import HullReport, visual_hull
 from hullcap._implicit import capsule_union_mesh, field_mesh
 from hullcap._mesh import check_closed
-from hullcap._render import render_depth
+from hullcap._render import render_silhouette
 from hullcap._sequence import Sequence
 from hullcap._silhouette import StatisticalBackground, background_model
 from hullcap._synth import synthesize
@@ -249,8 +249,26 @@ def test_mask_clean_up_drops_specks_and_fills_holes_as_labelling_every_component
         assert np.array_equal(clean_mask(mask, 1, 3), _reference_clean_mask(mask, 1, 3))
 
 
+def test_a_silhouette_is_where_the_z_buffer_sees_the_mesh_and_grows_as_a_whole_image_would():
+    from hullcap._guided import dilated
+    from hullcap._render import render_depth
+
+    vertices, faces = capsule_union_mesh([((0.0, 0.0, 0.6), (0.1, 0.05, 1.4), 0.15),
+                                          ((0.0, -0.2, 1.2), (0.0, 0.4, 1.25), 0.05)])
+    for cam in ring(6, 2.5, 1.2, width=160, height_px=120):
+        seen = render_silhouette(cam, vertices, faces)
+        assert seen.dtype == bool and seen.any() and not seen.all()
+        assert np.array_equal(seen, render_depth(cam, vertices, faces)[1] >= 0)
+        for fraction in (0.01, 0.1, 0.5):
+            r = max(1, round(fraction * cv2.boundingRect(seen.astype(np.uint8))[3]))
+            whole = cv2.dilate(seen.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1,) * 2))
+            assert np.array_equal(dilated(seen, fraction), whole > 0)
+    empty = np.zeros((5, 7), bool)
+    assert np.array_equal(dilated(empty, 0.1), empty)
+
+
 def _masks(cameras, vertices, faces):
-    return [(render_depth(c, vertices, faces)[1] >= 0).astype(np.uint8) * 255 for c in cameras]
+    return [render_silhouette(c, vertices, faces).astype(np.uint8) * 255 for c in cameras]
 
 
 def test_hull_of_a_sphere_is_tight_where_the_views_constrain_it():

@@ -11,7 +11,7 @@ from typing import Literal, final
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize", "FitOptions",
+__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize", "coverage", "FitOptions",
            "Target", "fit", "Shape", "fit_shape", "evaluate", "threads"]
 
 __version__: str
@@ -208,6 +208,18 @@ def rasterize(
         ``(depth, face)``: (height, width) float32 depth of the nearest surface (inf where
         none) and int32 index of the triangle seen (-1 where none).
     """
+
+def coverage(
+    vertices: ArrayLike3,
+    faces: npt.ArrayLike,
+    width: int,
+    height: int,
+    near: float = 1e-3,
+    threads: int | None = None,
+) -> npt.NDArray[np.uint8]:
+    """The silhouette of triangles already projected into an image: (height, width) uint8,
+    1 exactly where ``rasterize`` (same arguments) sees a triangle, 0 elsewhere; cheaper,
+    since no depth is computed."""
 
 @final
 class FitOptions:

@@ -169,7 +169,13 @@ def dilated(silhouette: np.ndarray, fraction: float) -> np.ndarray:
     if box is None:
         return silhouette
     r = max(1, int(round(fraction * box[3])))
-    return cv2.dilate(silhouette.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))) > 0
+    # Only the box grown by r can change: dilating that window alone gives the same pixels.
+    x, y, w, h = box
+    window = (slice(max(0, y - r), y + h + r), slice(max(0, x - r), x + w + r))
+    out = np.zeros_like(silhouette, bool)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    out[window] = cv2.dilate(silhouette[window].astype(np.uint8), kernel) > 0
+    return out
 
 
 def _box(silhouette: np.ndarray):

@@ -1,7 +1,7 @@
 """Drawing meshes as cameras see them: z-buffer (engine), silhouettes and shaded pictures.
 
 The engine rasterises triangles already projected to pixels (:func:`hullcap._engine.
-rasterize`); vertices are projected here with the camera's distortion, so straight edges
+rasterize`, or :func:`hullcap._engine.coverage` where only the silhouette is wanted); vertices are projected here with the camera's distortion, so straight edges
 between projected vertices stand in for the slightly curved images of triangle edges.
 """
 
@@ -10,10 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from hullcap._cameras import Camera
-from hullcap._engine import rasterize
+from hullcap._engine import coverage, rasterize
 from hullcap._mesh import face_normals
 
-__all__ = ["render_depth", "shade"]
+__all__ = ["render_depth", "render_silhouette", "shade"]
 
 SKIN = (0.82, 0.66, 0.55)
 
@@ -21,9 +21,19 @@ SKIN = (0.82, 0.66, 0.55)
 def render_depth(camera: Camera, vertices, faces, threads: int | None = None):
     """``(depth (H, W) float32 metres, inf where empty; face (H, W) int32, −1 where
     empty)`` of the mesh seen by `camera`."""
+    return rasterize(*_projected(camera, vertices, faces), 1e-3, threads)
+
+
+def render_silhouette(camera: Camera, vertices, faces, threads: int | None = None) -> np.ndarray:
+    """(H, W) bool: where `camera` sees the mesh (``render_depth``'s ``face >= 0``, pixel
+    for pixel, without the depths)."""
+    return coverage(*_projected(camera, vertices, faces), 1e-3, threads).view(bool)
+
+
+def _projected(camera: Camera, vertices, faces):
+    """``(uvz, faces, width, height)``: the engine's arguments for the mesh in `camera`."""
     pixels, z = camera.project(vertices)
-    uvz = np.concatenate([pixels, z[:, None]], 1)
-    return rasterize(uvz, faces, camera.width, camera.height, 1e-3, threads)
+    return np.concatenate([pixels, z[:, None]], 1), faces, camera.width, camera.height
 
 
 def shade(camera: Camera, vertices, faces, colour=SKIN, background=(1.0, 1.0, 1.0),

@@ -23,7 +23,7 @@ from hullcap._files import atomic_write
 from hullcap._mesh import face_normals
 from hullcap._motions import motion_poses
 from hullcap._progress import progress
-from hullcap._render import render_depth
+from hullcap._render import render_depth, render_silhouette
 from hullcap.errors import OptionsError, SequenceError
 
 __all__ = ["render_sequence", "render_motion", "synthesize", "SUBJECTS"]
@@ -91,8 +91,7 @@ def _draw(camera, vertices, faces, colours, scene, noise, rng):
     _, face = render_depth(camera, vertices, faces)
     # The shadow: the mesh flattened onto the floor along the light, seen by the camera.
     flat = vertices - np.outer(np.maximum(vertices[:, 2], 0) / LIGHT[2], LIGHT)
-    _, shadow_face = render_depth(camera, flat, faces)
-    shadow = cv2.GaussianBlur((shadow_face >= 0).astype(np.float32), (0, 0), 3.0)
+    shadow = cv2.GaussianBlur(render_silhouette(camera, flat, faces).astype(np.float32), (0, 0), 3.0)
     img = scene * (1 - 0.45 * shadow[..., None])
     seen = face >= 0
     if seen.any():

@@ -49,7 +49,7 @@ from hullcap._hull import HullReport, capture_volume, check_bounds, visual_hull
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
-from hullcap._render import render_depth
+from hullcap._render import render_silhouette
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
@@ -348,7 +348,7 @@ class Tracker:
     def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
         """The model's (H, W) bool silhouette at `pose` in every view."""
         v = model.pose(pose.theta, pose.root_rotation, pose.root_translation).vertices
-        return over_views(lambda cam: render_depth(cam, v, model.faces)[1] >= 0, self.sequence.cameras)
+        return over_views(lambda cam: render_silhouette(cam, v, model.faces), self.sequence.cameras)
 
     def _guides(self) -> bool:
         """Whether silhouettes are guided by the model."""

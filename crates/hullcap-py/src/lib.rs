@@ -31,6 +31,7 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(body::link_distances, m)?)?;
     m.add_function(wrap_pyfunction!(body::link_tree_problem, m)?)?;
     m.add_function(wrap_pyfunction!(raster::rasterize, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::coverage, m)?)?;
     m.add_function(wrap_pyfunction!(raster::classify_cells, m)?)?;
     m.add_function(wrap_pyfunction!(raster::carve, m)?)?;
     m.add_function(wrap_pyfunction!(raster::gaussian_blur, m)?)?;

@@ -1,4 +1,5 @@
-//! Z-buffered rasterisation for the renderer of synthetic sequences and the pictures.
+//! Z-buffered rasterisation for the renderer of synthetic sequences and the pictures, and
+//! plain coverage for the predicted silhouettes of tracking.
 
 use crate::arrays::{self, flat_floats, index_rows, rows3};
 use crate::call::{ArrayError, detached};
@@ -34,6 +35,33 @@ pub(crate) fn rasterize<'py>(
         PyArray1::from_vec(py, out.depth).reshape(vec![h, w])?,
         PyArray1::from_vec(py, out.face).reshape(vec![h, w])?,
     ))
+}
+
+/// 1 where a triangle given in pixel space covers a pixel, 0 elsewhere; see
+/// `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, width, height, near=1e-3, threads=None))]
+pub(crate) fn coverage<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    width: i64,
+    height: i64,
+    near: f64,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
+    let vertices = rows3(vertices, "vertices")?;
+    let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
+    let (w, h) = (
+        arrays::count(width, "width", 1)?,
+        arrays::count(height, "height", 1)?,
+    );
+    let threads = arrays::threads(threads)?;
+    let v = vertices.rows();
+    let seen = detached(py, || {
+        hullcap_raster::coverage(v, &faces, w, h, near, threads)
+    })?;
+    PyArray1::from_vec(py, seen).reshape(vec![h, w])
 }
 
 /// The carving's verdict per cell (0 out, 1 in, 2 split); see `hullcap._engine.pyi`.

@@ -25,5 +25,5 @@ mod smooth;
 
 pub use carve::{Camera, CarveView, Carved, Verdict, carve, classify_cells};
 pub use isosurface::{Isosurface, isosurface};
-pub use raster::{RasterError, Rendered, rasterize};
+pub use raster::{RasterError, Rendered, coverage, rasterize};
 pub use smooth::gaussian_blur;

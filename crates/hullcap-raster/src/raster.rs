@@ -100,6 +100,61 @@ pub fn rasterize(
     near: f64,
     threads: Option<usize>,
 ) -> Result<Rendered, RasterError> {
+    let screens = screens(vertices, faces, width, height, near)?;
+    let mut pixels = vec![(f32::INFINITY, -1i32); width * height];
+    for_each_chunk_mut(
+        &mut pixels,
+        resolve_threads(threads),
+        width * BAND_ROWS,
+        |offset, chunk| {
+            draw_band(&screens, width, offset, chunk);
+        },
+    )?;
+    let (depth, face) = pixels.into_iter().unzip();
+    Ok(Rendered { depth, face })
+}
+
+/// The silhouette of the triangles: 1 where [`rasterize`] sees a triangle (`face ≥ 0`), 0
+/// elsewhere, row-major, the same pixels to the last one; without depths, so cheaper.
+/// Errors as [`rasterize`].
+///
+/// ```
+/// let vertices = [[1.0, 1.0, 2.0], [8.0, 1.0, 2.0], [1.0, 8.0, 2.0]];
+/// let seen = hullcap_raster::coverage(&vertices, &[[0, 1, 2]], 10, 10, 0.01, None).unwrap();
+/// assert_eq!((seen[2 * 10 + 2], seen[9 * 10 + 9]), (1, 0));
+/// ```
+pub fn coverage(
+    vertices: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    width: usize,
+    height: usize,
+    near: f64,
+    threads: Option<usize>,
+) -> Result<Vec<u8>, RasterError> {
+    let screens = screens(vertices, faces, width, height, near)?;
+    let mut pixels = vec![0u8; width * height];
+    for_each_chunk_mut(
+        &mut pixels,
+        resolve_threads(threads),
+        width * BAND_ROWS,
+        |offset, chunk| {
+            cover_band(&screens, width, offset, chunk);
+        },
+    )?;
+    Ok(pixels)
+}
+
+/// Image rows per band of the parallel drawing.
+const BAND_ROWS: usize = 8;
+
+/// The triangles that can be seen, set up for edge tests; errors on a bad size or index.
+fn screens(
+    vertices: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    width: usize,
+    height: usize,
+    near: f64,
+) -> Result<Vec<Screen>, RasterError> {
     const MAX_SIDE: usize = 1 << 14;
     if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
         return Err(RasterError::BadSize { width, height });
@@ -118,13 +173,7 @@ pub fn rasterize(
             screens.push(s);
         }
     }
-    let mut pixels = vec![(f32::INFINITY, -1i32); width * height];
-    let threads = resolve_threads(threads);
-    for_each_chunk_mut(&mut pixels, threads, width * 8, |offset, chunk| {
-        draw_band(&screens, width, offset, chunk);
-    })?;
-    let (depth, face) = pixels.into_iter().unzip();
-    Ok(Rendered { depth, face })
+    Ok(screens)
 }
 
 fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -> Option<Screen> {
@@ -177,43 +226,65 @@ fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -
     })
 }
 
-/// Draws every triangle into the pixels `offset .. offset + band.len()` of the image.
-fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, i32)]) {
+/// Calls `visit(pixel − offset, barycentric coordinates)` for every pixel of the band
+/// `offset .. offset + band_len` that triangle `s` covers.
+fn for_covered(
+    s: &Screen,
+    width: usize,
+    offset: usize,
+    band_len: usize,
+    mut visit: impl FnMut(usize, [f64; 3]),
+) {
     let first_row = (offset / width) as i32;
-    let last_row = ((offset + band.len() - 1) / width) as i32;
-    let (lo, hi) = (offset, offset + band.len());
-    for s in screens {
-        if s.y1 < first_row || s.y0 > last_row {
-            continue;
-        }
-        for y in s.y0.max(first_row)..=s.y1.min(last_row) {
-            for x in s.x0..=s.x1 {
-                let pixel = y as usize * width + x as usize;
-                if pixel < lo || pixel >= hi {
-                    continue;
+    let last_row = ((offset + band_len - 1) / width) as i32;
+    if s.y1 < first_row || s.y0 > last_row {
+        return;
+    }
+    let (lo, hi) = (offset, offset + band_len);
+    for y in s.y0.max(first_row)..=s.y1.min(last_row) {
+        for x in s.x0..=s.x1 {
+            let pixel = y as usize * width + x as usize;
+            if pixel < lo || pixel >= hi {
+                continue;
+            }
+            let (xf, yf) = (f64::from(x), f64::from(y));
+            let mut bary = [0.0; 3];
+            let mut inside = true;
+            for (k, slot) in bary.iter_mut().enumerate() {
+                let e = s.a[k] * xf + s.b[k] * yf + s.c[k];
+                if e < 0.0 || (e == 0.0 && !s.owns_edge[k]) {
+                    inside = false;
+                    break;
                 }
-                let (xf, yf) = (f64::from(x), f64::from(y));
-                let mut bary = [0.0; 3];
-                let mut inside = true;
-                for (k, slot) in bary.iter_mut().enumerate() {
-                    let e = s.a[k] * xf + s.b[k] * yf + s.c[k];
-                    if e < 0.0 || (e == 0.0 && !s.owns_edge[k]) {
-                        inside = false;
-                        break;
-                    }
-                    *slot = e;
-                }
-                if !inside {
-                    continue;
-                }
-                let inv_z = bary[0] * s.inv_z[0] + bary[1] * s.inv_z[1] + bary[2] * s.inv_z[2];
-                let z = (1.0 / inv_z) as f32;
-                let slot = &mut band[pixel - lo];
-                if z < slot.0 || (z == slot.0 && s.face < slot.1) {
-                    *slot = (z, s.face);
-                }
+                *slot = e;
+            }
+            if inside {
+                visit(pixel - lo, bary);
             }
         }
+    }
+}
+
+/// Draws every triangle into the pixels `offset .. offset + band.len()` of the image.
+fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, i32)]) {
+    let n = band.len();
+    for s in screens {
+        for_covered(s, width, offset, n, |i, bary| {
+            let inv_z = bary[0] * s.inv_z[0] + bary[1] * s.inv_z[1] + bary[2] * s.inv_z[2];
+            let z = (1.0 / inv_z) as f32;
+            let slot = &mut band[i];
+            if z < slot.0 || (z == slot.0 && s.face < slot.1) {
+                *slot = (z, s.face);
+            }
+        });
+    }
+}
+
+/// Marks with 1 the pixels `offset .. offset + band.len()` that any triangle covers.
+fn cover_band(screens: &[Screen], width: usize, offset: usize, band: &mut [u8]) {
+    let n = band.len();
+    for s in screens {
+        for_covered(s, width, offset, n, |i, _| band[i] = 1);
     }
 }
 
@@ -311,5 +382,51 @@ mod tests {
         let behind = vec![[1.0, 1.0, -1.0], [5.0, 1.0, 2.0], [1.0, 5.0, 2.0]];
         let out = rasterize(&behind, &[[0, 1, 2]], 8, 8, 0.01, None).unwrap();
         assert!(out.face.iter().all(|&f| f == -1));
+        assert!(matches!(
+            coverage(&v, &[[0, 1, 9]], 8, 8, 0.01, None),
+            Err(RasterError::BadIndex { .. })
+        ));
+        assert!(
+            coverage(&behind, &[[0, 1, 2]], 8, 8, 0.01, None)
+                .unwrap()
+                .iter()
+                .all(|&c| c == 0)
+        );
+    }
+
+    #[test]
+    fn coverage_is_where_a_triangle_is_seen() {
+        // A soup of small overlapping triangles, some off the image, a third with corners on
+        // pixel centres (edges through them), some behind the near plane.
+        let mut state = 12345u64;
+        let mut next = |scale: f64| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 / (1u64 << 53) as f64) * scale
+        };
+        let mut vertices = Vec::new();
+        for i in 0..300 {
+            let (u, v) = (next(90.0) - 10.0, next(70.0) - 10.0);
+            for _ in 0..3 {
+                let (du, dv) = (next(16.0) - 8.0, next(16.0) - 8.0);
+                let (du, dv) = if i % 3 == 0 {
+                    (du.round(), dv.round())
+                } else {
+                    (du, dv)
+                };
+                vertices.push([u.round() + du, v.round() + dv, next(4.0) - 0.5]);
+            }
+        }
+        let faces: Vec<[u32; 3]> = (0..300u32).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+        let drawn = rasterize(&vertices, &faces, 71, 53, 0.01, Some(1)).unwrap();
+        let seen: Vec<u8> = drawn.face.iter().map(|&f| u8::from(f >= 0)).collect();
+        assert!(seen.contains(&1) && seen.contains(&0));
+        for threads in [1, 3] {
+            assert_eq!(
+                coverage(&vertices, &faces, 71, 53, 0.01, Some(threads)).unwrap(),
+                seen
+            );
+        }
     }
 }

@@ -11,7 +11,7 @@ import numpy as np
 
 from hullcap._files import publish
 from hullcap._progress import progress
-from hullcap._render import render_depth
+from hullcap._render import render_silhouette
 from hullcap.errors import ViewError
 
 __all__ = ["write_overlays", "write_report", "BONES"]
@@ -33,8 +33,7 @@ def draw_overlay(image, camera, vertices, faces, joints, joint_names, failed: bo
     if failed:
         cv2.putText(out, "fit failed", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (0, 0, 255), 2, cv2.LINE_AA)
         return out
-    _, face = render_depth(camera, vertices, faces)
-    mask = (face >= 0).astype(np.uint8)
+    mask = render_silhouette(camera, vertices, faces).astype(np.uint8)
     out[mask > 0] = (0.7 * out[mask > 0] + 0.3 * np.array(OUTLINE)).astype(np.uint8)
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     cv2.drawContours(out, contours, -1, OUTLINE, 1, cv2.LINE_AA)
