@@ -8,7 +8,8 @@ Run: ``.venv/bin/python benchmarks/bench_hull.py``.
 
 ``--devset d01_bend …`` instead prints, per camera of those development sequences, the IoU
 against the exact masks (mean and worst frame) and the time per camera frame of Horprasert's
-test, MOG2 and the model-guided silhouettes. The guide is what the tracker had: the model
+test, MOG2 and the model-guided silhouettes, without and with the texture test
+(``GuidedOptions.texture_weight=3``). The guide is what the tracker had: the model
 of a ``bench_devset.py`` colour run of the sequence (its ``model/`` and ``pose.npz``) at
 the frame before, its colours learnt at the first tracked frame.
 """
@@ -72,14 +73,14 @@ def devset_table(names, step: int) -> None:
 
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import devset
-    from hullcap._guided import GuidedSegmenter
+    from hullcap._guided import GuidedOptions, GuidedSegmenter
     from hullcap._render import render_silhouette
     from hullcap._results import load_result
 
     where = devset.find()
     if where is None:
         raise SystemExit("the development set is not here: set HULLCAP_DEVSET")
-    methods = ("Horprasert", "MOG2", "model-guided")
+    methods = ("Horprasert", "MOG2", "model-guided", "guided + texture")
     for name in names:
         seq = Sequence(devset.render(where, name))
         run = devset.CACHE / "results" / f"{name}-colour"
@@ -95,9 +96,11 @@ def devset_table(names, step: int) -> None:
         stat = [StatisticalBackground(seq.background(i)) for i in range(len(seq.cameras))]
         mog = [Mog2Background(seq.background(i)) for i in range(len(seq.cameras))]
         guided = [GuidedSegmenter(b) for b in stat]
+        textured = [GuidedSegmenter(b, GuidedOptions(texture_weight=3.0)) for b in stat]
         first = int(np.flatnonzero(~result.failed)[0])
-        for seg, img, sil in zip(guided, seq.images(first), silhouettes(first)):
+        for seg, tex, img, sil in zip(guided, textured, seq.images(first), silhouettes(first)):
             seg.learn(img, sil)
+            tex.learn(img, sil)
         scores = {m: [[] for _ in seq.cameras] for m in methods}
         seconds = dict.fromkeys(methods, 0.0)
         frames = range(first + 1, len(seq), step)
@@ -106,7 +109,8 @@ def devset_table(names, step: int) -> None:
             for i, img in enumerate(seq.images(f)):
                 truth = seq.mask(f, i) > 0
                 for method, segment in (("Horprasert", lambda: stat[i].mask(img)), ("MOG2", lambda: mog[i].mask(img)),
-                                        ("model-guided", lambda: guided[i].mask(img, prior[i]))):
+                                        ("model-guided", lambda: guided[i].mask(img, prior[i])),
+                                        ("guided + texture", lambda: textured[i].mask(img, prior[i]))):
                     t0 = time.perf_counter()
                     mask = segment()
                     seconds[method] += time.perf_counter() - t0

@@ -498,3 +498,39 @@ def test_a_hole_in_one_view_is_overruled_where_the_others_and_the_prior_agree():
     assert not reaches_hand(visual_hull(masks, cams, tolerance=1))
     with pytest.raises(ValueError, match="7 priors for 8 cameras"):
         visual_hull(masks, cams, tolerance=1, priors=with_body[:7])
+
+
+def test_the_texture_test_sees_the_floor_through_a_shadow_but_not_through_cloth_of_its_colour(rng):
+    from hullcap._guided import GuidedOptions, TextureTest
+
+    # A tiled floor (joints darker than the tiles) with sensor noise, and a flat wall.
+    h, w = 60, 80
+    floor = np.full((h, w), 150.0)
+    floor[::10, :] = floor[:, ::10] = 90.0
+    floor = cv2.GaussianBlur(floor, (0, 0), 0.8)
+    floor[:, 60:] = 150.0
+    scene = np.repeat(floor[..., None], 3, 2)
+    background = StatisticalBackground(np.clip(scene + rng.normal(0, 1.5, scene.shape), 0, 255).astype(np.uint8))
+    options = GuidedOptions()
+    test = TextureTest(background, options)
+
+    frame = scene.copy()
+    frame[10:40, 10:30] *= 0.6  # a shadow: darker, the same texture
+    frame[30:55, 35:55] = floor.mean()  # cloth of the floor's mean colour, flat
+    frame = np.clip(frame + rng.normal(0, 1.5, frame.shape), 0, 255).astype(np.uint8)
+    evidence = test.evidence(frame)
+    assert evidence.shape == (h, w) and evidence.dtype == np.float32
+    # The empty scene itself: −1 where a window holds a joint, 0 inside a tile or on the wall.
+    textured = test.evidence(np.clip(scene, 0, 255).astype(np.uint8)) == -1.0
+    assert textured[:, :50].mean() > 0.5 and not textured[:, 64:].any()
+    cloth, shadow = (slice(34, 51), slice(39, 51)), (slice(14, 36), slice(14, 26))
+    assert np.all(evidence[cloth][textured[cloth]] == 1.0) and np.all(evidence[cloth][~textured[cloth]] == 0.0)
+    assert np.all(evidence[shadow][textured[shadow]] == -1.0)  # still background
+    assert np.all(evidence[:, 64:] == 0.0)  # no texture, no say
+    roi = (slice(20, 58), slice(30, 70))
+    inner = (slice(5, -5), slice(5, -5))
+    assert np.array_equal(test.evidence(frame, roi)[inner], evidence[roi][inner])
+    with pytest.raises(ValueError, match="texture_window"):
+        GuidedOptions(texture_window=4)
+    with pytest.raises(ValueError, match="texture_hidden"):
+        GuidedOptions(texture_seen=0.4)

@@ -76,6 +76,9 @@ class StatisticalBackground:
         self.thresholds = thresholds
         self.min_blob, self.max_hole = min_blob, max_hole
         mean = stack.mean(0)
+        self.mean = mean.astype(np.float32)
+        """(H, W, 3) the expected colour E of each pixel (BGR, grey levels)."""
+        self.noise_floor = noise_floor
         spread = stack.std(0) if len(stack) > 1 else np.zeros_like(mean)
         inv_s = (1.0 / np.maximum(spread, noise_floor)).astype(np.float32)
         es = (mean * inv_s).astype(np.float32)
