@@ -1,8 +1,9 @@
 """Drawing meshes as cameras see them: z-buffer (engine), silhouettes and shaded pictures.
 
 The engine rasterises triangles already projected to pixels (:func:`hullcap._engine.
-rasterize`, or :func:`hullcap._engine.coverage` where only the silhouette is wanted); vertices are projected here with the camera's distortion, so straight edges
-between projected vertices stand in for the slightly curved images of triangle edges.
+rasterize`, or :func:`hullcap._engine.coverage` where only the silhouette is wanted);
+vertices are projected here with the camera's distortion, so straight edges between
+projected vertices stand in for the slightly curved images of triangle edges.
 """
 
 from __future__ import annotations

@@ -4,7 +4,9 @@
 //! The renderer of synthetic sequences (`hullcap._synth`) projects a mesh into each camera
 //! (with its distortion) and hands the engine pixel coordinates and camera depths; the
 //! engine returns, per pixel, the depth of the nearest surface and the triangle seen
-//! there. Silhouettes, shading and pictures are made from those in Python.
+//! there; shading and pictures are made from those in Python. Where only the silhouette
+//! is wanted (the tracker's predicted model, every view of every frame), [`coverage`]
+//! marks the same pixels without computing depths.
 //!
 //! Pixel (0, 0) is the centre of the top-left pixel (OpenCV's convention). A pixel is
 //! covered when its centre lies inside the triangle (edges shared by two triangles are
