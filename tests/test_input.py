@@ -534,3 +534,19 @@ def test_the_texture_test_sees_the_floor_through_a_shadow_but_not_through_cloth_
         GuidedOptions(texture_window=4)
     with pytest.raises(ValueError, match="texture_hidden"):
         GuidedOptions(texture_seen=0.4)
+
+
+def test_the_priors_ramp_in_its_window_is_the_ramp_of_the_whole_region(rng):
+    from hullcap._guided import _box, _ramp
+    from hullcap._silhouette import signed_distance
+
+    for _ in range(300):
+        h, w = rng.integers(8, 120, 2)
+        noise = cv2.GaussianBlur(rng.random((h, w)), (0, 0), rng.uniform(0.5, 4))
+        prior = noise > np.quantile(noise, rng.uniform(0.5, 0.995))
+        x, y, bw, bh = _box(prior)
+        pad = int(rng.integers(0, 40))  # the region reaches the image's edge or stops short of it
+        roi = (slice(max(0, y - pad), min(h, y + bh + pad)), slice(max(0, x - pad), min(w, x + bw + pad)))
+        band = max(1.0, rng.uniform(0.5, 12))
+        whole = np.clip(signed_distance(prior[roi]) / band, -1.0, 1.0)
+        assert np.array_equal(_ramp(prior, (x, y, bw, bh), roi, band), whole)

@@ -227,20 +227,35 @@ class GuidedSegmenter:
         y0, y1 = max(0, y - pad), min(image.shape[0], y + h + pad)
         x0, x1 = max(0, x - pad), min(image.shape[1], x + w + pad)
         roi = (slice(y0, y1), slice(x0, x1))
-        band = max(1.0, o.band * h)
-        d = signed_distance(prior[roi])
         ev = np.clip(evidence[roi], -3.0, FOREGROUND_EVIDENCE)
-        logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * np.clip(d / band, -1.0, 1.0)
+        logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * _ramp(prior, box, roi, max(1.0, o.band * h))
         if o.colour_weight:
             logit += o.colour_weight * np.clip(self.colours.log_ratio(image[roi]), -4.0, 4.0)
         if self.texture is not None:
             logit += o.texture_weight * self.texture.evidence(image, roi)
         if o.smooth > 0:
             logit = cv2.GaussianBlur(logit, (0, 0), o.smooth)
-        raw = np.where(evidence > 0, 255, 0).astype(np.uint8)
-        raw[roi] = np.where(logit > 0, 255, 0)
-        area = float(prior.sum())
+        raw = cv2.compare(evidence, 0.0, cv2.CMP_GT)
+        raw[roi] = cv2.compare(logit, 0.0, cv2.CMP_GT)
+        area = float(np.count_nonzero(prior))
         return half_covered(clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area)), distortion)
+
+
+def _ramp(prior: np.ndarray, box, roi, band: float) -> np.ndarray:
+    """Over `roi`, the signed distance to the outline of `prior` (bool, bounding `box`)
+    divided by `band` and clipped to ±1. Only pixels within `band` of the outline fall
+    between, and they lie in the box grown by `band`: the distance transform runs in
+    that window (with a margin) alone, where it gives the values of the whole region
+    (a shortest chamfer path stays within the box of its two ends, and a ring of outside
+    pixels surrounds the prior in the window)."""
+    x, y, w, h = box
+    (y0, y1), (x0, x1) = (roi[0].start, roi[0].stop), (roi[1].start, roi[1].stop)
+    m = int(np.ceil(band)) + 2
+    wy0, wy1, wx0, wx1 = max(y0, y - m), min(y1, y + h + m), max(x0, x - m), min(x1, x + w + m)
+    out = np.full((y1 - y0, x1 - x0), -1.0, np.float32)
+    d = signed_distance(prior[wy0:wy1, wx0:wx1])
+    out[wy0 - y0:wy1 - y0, wx0 - x0:wx1 - x0] = np.clip(d / band, -1.0, 1.0)
+    return out
 
 
 def dilated(silhouette: np.ndarray, fraction: float) -> np.ndarray:
