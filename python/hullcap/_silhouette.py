@@ -183,12 +183,15 @@ def clean_mask(mask: np.ndarray, min_blob: int = 200, max_hole: int | None = 200
     fg = (np.asarray(mask) > 0).astype(np.uint8)
     fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
     _clear_components(fg, 8, lambda size: size < min_blob)
-    # Holes: the background that a flood from a frame of background round the image does
-    # not reach. Labelling only them (within their box) is cheaper than labelling all of
-    # the background and asking which of its parts touch the border.
-    framed = cv2.copyMakeBorder(fg, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    # Holes: the background that a flood from a frame of background round the foreground's
+    # box does not reach (all background outside that box reaches the image's border).
+    # Labelling only them (within their box) is cheaper than labelling all of the
+    # background and asking which of its parts touch the border.
+    x, y, w, h = cv2.boundingRect(fg)
+    framed = cv2.copyMakeBorder(fg[y:y + h, x:x + w], 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
     cv2.floodFill(framed, None, (0, 0), 1, flags=4)
-    holes = (framed[1:-1, 1:-1] == 0).view(np.uint8)
+    holes = np.zeros_like(fg)
+    holes[y:y + h, x:x + w] = framed[1:-1, 1:-1] == 0
     if max_hole is not None:
         x, y, w, h = cv2.boundingRect(holes)
         _clear_components(holes[y:y + h, x:x + w], 4, lambda size: size > max_hole)
