@@ -61,3 +61,11 @@ def test_engine_errors_arrive_as_their_kind():
         hullcap.skin_weights(model.vertices, model.faces + len(model.vertices), links, groups=groups)
     with pytest.raises(errors.ArrayError, match="k must be at least 1"):
         hullcap.NormalKDTree(np.zeros((4, 3)), np.ones((4, 3))).query_k(np.zeros((1, 3)), np.ones((1, 3)), 0)
+    from hullcap._engine import coverage
+
+    triangle = np.array([[1.0, 1.0, 2.0], [8.0, 1.0, 2.0], [1.0, 8.0, 2.0]])
+    assert coverage(triangle, [[0, 1, 2]], 10, 10).sum() > 0
+    with pytest.raises(errors.ArrayError, match="faces.* outside"):
+        coverage(triangle, [[0, 1, 3]], 10, 10)
+    with pytest.raises(errors.ArrayError, match="width"):
+        coverage(triangle, [[0, 1, 2]], 0, 10)
