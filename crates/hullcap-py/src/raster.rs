@@ -1,7 +1,7 @@
 //! Z-buffered rasterisation for the renderer of synthetic sequences and the pictures, and
 //! plain coverage for the predicted silhouettes of tracking.
 
-use crate::arrays::{self, flat_floats, index_rows, rows3};
+use crate::arrays::{self, Rows3, flat_floats, index_rows, rows3};
 use crate::call::{ArrayError, detached};
 use numpy::{PyArray1, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -20,21 +20,10 @@ pub(crate) fn rasterize<'py>(
     near: f64,
     threads: Option<i64>,
 ) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, Bound<'py, PyArrayDyn<i32>>)> {
-    let vertices = rows3(vertices, "vertices")?;
-    let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
-    let (w, h) = (
-        arrays::count(width, "width", 1)?,
-        arrays::count(height, "height", 1)?,
-    );
-    let threads = arrays::threads(threads)?;
-    let v = vertices.rows();
-    let out = detached(py, || {
-        hullcap_raster::rasterize(v, &faces, w, h, near, threads)
-    })?;
-    Ok((
-        PyArray1::from_vec(py, out.depth).reshape(vec![h, w])?,
-        PyArray1::from_vec(py, out.face).reshape(vec![h, w])?,
-    ))
+    let mesh = Projected::new(vertices, faces, width, height, threads)?;
+    let (v, f, w, h, t) = mesh.parts();
+    let out = detached(py, || hullcap_raster::rasterize(v, f, w, h, near, t))?;
+    Ok((mesh.image(py, out.depth)?, mesh.image(py, out.face)?))
 }
 
 /// 1 where a triangle given in pixel space covers a pixel, 0 elsewhere; see
@@ -50,18 +39,60 @@ pub(crate) fn coverage<'py>(
     near: f64,
     threads: Option<i64>,
 ) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
-    let vertices = rows3(vertices, "vertices")?;
-    let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
-    let (w, h) = (
-        arrays::count(width, "width", 1)?,
-        arrays::count(height, "height", 1)?,
-    );
-    let threads = arrays::threads(threads)?;
-    let v = vertices.rows();
-    let seen = detached(py, || {
-        hullcap_raster::coverage(v, &faces, w, h, near, threads)
-    })?;
-    PyArray1::from_vec(py, seen).reshape(vec![h, w])
+    let mesh = Projected::new(vertices, faces, width, height, threads)?;
+    let (v, f, w, h, t) = mesh.parts();
+    let seen = detached(py, || hullcap_raster::coverage(v, f, w, h, near, t))?;
+    mesh.image(py, seen)
+}
+
+/// The checked arguments of the two rasterisers: a mesh in pixel space and its image.
+struct Projected<'py> {
+    vertices: Rows3<'py>,
+    faces: Vec<[u32; 3]>,
+    width: usize,
+    height: usize,
+    threads: Option<usize>,
+}
+
+impl<'py> Projected<'py> {
+    fn new(
+        vertices: &Bound<'py, PyAny>,
+        faces: &Bound<'py, PyAny>,
+        width: i64,
+        height: i64,
+        threads: Option<i64>,
+    ) -> PyResult<Self> {
+        let vertices = rows3(vertices, "vertices")?;
+        let faces = index_rows::<3>(faces, "faces", vertices.rows().len())?;
+        Ok(Projected {
+            faces,
+            vertices,
+            width: arrays::count(width, "width", 1)?,
+            height: arrays::count(height, "height", 1)?,
+            threads: arrays::threads(threads)?,
+        })
+    }
+
+    /// What the engine's rasterisers take: vertices, faces, width, height and threads.
+    #[allow(clippy::type_complexity)]
+    fn parts(&self) -> (&[[f64; 3]], &[[u32; 3]], usize, usize, Option<usize>) {
+        (
+            self.vertices.rows(),
+            &self.faces,
+            self.width,
+            self.height,
+            self.threads,
+        )
+    }
+
+    /// Row-major `values` as a (height, width) array.
+    fn image<T: numpy::Element>(
+        &self,
+        py: Python<'py>,
+        values: Vec<T>,
+    ) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
+        PyArray1::from_vec(py, values).reshape(vec![self.height, self.width])
+    }
 }
 
 /// The carving's verdict per cell (0 out, 1 in, 2 split); see `hullcap._engine.pyi`.
