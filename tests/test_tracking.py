@@ -226,10 +226,11 @@ def test_subject_model_is_built_from_the_first_hull(short_sequence, rest_mesh):
 
 
 def test_views_side_by_side_keep_their_order_and_errors(monkeypatch):
-    from hullcap._threads import over_views, view_threads
+    from hullcap._engine import threads
+    from hullcap._threads import over_views
 
     monkeypatch.setenv("HULLCAP_THREADS", "3")
-    assert view_threads() == 3
+    assert threads() == 3
     assert over_views(lambda x: x * x, range(10)) == [x * x for x in range(10)]
 
     def broken(x):
@@ -241,4 +242,4 @@ def test_views_side_by_side_keep_their_order_and_errors(monkeypatch):
         over_views(broken, range(8))
     for value in ("0", "two", ""):
         monkeypatch.setenv("HULLCAP_THREADS", value)
-        assert view_threads() >= 1
+        assert threads() >= 1

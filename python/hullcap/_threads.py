@@ -5,7 +5,8 @@ do their work without the GIL.
   per-pixel background test on a second thread (:class:`ReadAhead`). Only what does not
   depend on the fit of frame t may run ahead.
 - Side by side: a frame's views, each independent of the others (the prediction drawn
-  into it, its guided mask), are processed on a few threads (:func:`over_views`).
+  into it, its guided mask, the hull's dilated prior and distance images), are processed
+  on a few threads (:func:`over_views`).
 
 The results are those of the same calls made in order, one after another
 (tests/test_tracking.py checks a run with and without).
@@ -21,22 +22,17 @@ from concurrent.futures import ThreadPoolExecutor
 
 from hullcap import _engine
 
-__all__ = ["ReadAhead", "over_views", "view_threads"]
+__all__ = ["ReadAhead", "over_views"]
 
 _pools: dict[int, ThreadPoolExecutor] = {}
 
 
-def view_threads() -> int:
-    """Threads for a frame's views: as many as the engine runs on (``$HULLCAP_THREADS``
-    when it is a positive number, else every core)."""
-    return _engine.threads()
-
-
 def over_views(work: Callable, items: Iterable) -> list:
-    """``[work(item) for item in items]``, the items shared among :func:`view_threads`
-    threads; the first exception of `work` is raised here."""
+    """``[work(item) for item in items]``, the items shared among as many threads as the
+    engine runs on (``_engine.threads()``: ``$HULLCAP_THREADS`` when it is a positive
+    number, else every core); the first exception of `work` is raised here."""
     items = list(items)
-    threads = min(view_threads(), len(items))
+    threads = min(_engine.threads(), len(items))
     if threads <= 1:
         return [work(item) for item in items]
     pool = _pools.get(threads)
