@@ -550,3 +550,35 @@ def test_the_priors_ramp_in_its_window_is_the_ramp_of_the_whole_region(rng):
         band = max(1.0, rng.uniform(0.5, 12))
         whole = np.clip(signed_distance(prior[roi]) / band, -1.0, 1.0)
         assert np.array_equal(_ramp(prior, (x, y, bw, bh), roi, band), whole)
+
+
+@pytest.mark.parametrize("scene_share", [0.0, 0.5])
+def test_a_wall_the_colour_of_the_subjects_shirt_stays_background(scene_share, rng):
+    from hullcap._guided import GuidedOptions, GuidedSegmenter
+
+    # A grey floor below a brown panel; the person wears a brown shirt and blue trousers.
+    h, w = 120, 160
+    brown, blue = (40, 70, 120), (140, 60, 30)
+    scene = np.full((h, w, 3), 120.0)
+    scene[:25] = brown
+    noisy = lambda img: np.clip(img + rng.normal(0, 1.5, img.shape), 0, 255).astype(np.uint8)  # noqa: E731
+    segmenter = GuidedSegmenter(StatisticalBackground(noisy(scene)), GuidedOptions(scene_share=scene_share))
+
+    def frame(top):
+        img, body = scene.copy(), np.zeros((h, w), bool)
+        body[top:top + 70, 60:90] = True
+        img[top:top + 35, 60:90] = brown
+        img[top + 35:top + 70, 60:90] = blue
+        return noisy(img), body
+
+    segmenter.learn(*frame(45))  # the panel lies far from the person here
+    image, body = frame(35)  # and within the guided region here
+    mask = segmenter.mask(image, body) > 0
+    assert mask[body].mean() > 0.95  # the shirt is the panel's colour, and the person's
+    leak = mask[:25].mean()
+    if scene_share:
+        assert leak == 0.0
+    else:  # knowing only the floor near the person, the colours call the panel subject
+        assert leak > 0.1
+    with pytest.raises(ValueError, match="scene_share"):
+        GuidedOptions(scene_share=1.5)
