@@ -91,8 +91,8 @@ class SubjectOptions:
             much (radians) on one side at least: a straight limb says nothing of where it
             would bend, and a slightly bent one too little. On the development set from
             exact masks the quality's peak lies within a centimetre of the true knee on
-            every sequence whose knees bend by 45° or more; d03's knees bend 41° at most
-            in its first three seconds, and there the profile rose to the range's edge
+            every sequence whose knees bend by 45° or more; d03's knees never bend more
+            than 41°, and there the profile rose to the range's edge
             (4 cm off) from both colour frames and exact masks.
         centre_min_gain: the least rise of mean quality over keeping the centre where it
             is for a move to be made (quality is a fraction; a frame's refits differ by
