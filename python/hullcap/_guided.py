@@ -129,8 +129,8 @@ class GuidedOptions:
 class ColourModel:
     """Colour histograms of the subject and of the background around it, one camera,
     and of the whole empty scene: the person may move in front of any of it, and a colour
-    of the scene that never lay near the person when the model learnt (a wall's panelling
-    above a jump) is still background. The background's colour probability is the band's
+    of the scene that never lay near the person while it learnt (a wall's panelling) is
+    still background. The background's colour probability is the band's
     and the scene's mixed, the scene's share `scene_share`."""
 
     def __init__(self, bins: int = 16, scene: np.ndarray | None = None, scene_share: float = 0.5):
