@@ -86,8 +86,8 @@ class GuidedOptions:
             so 3 (more than the prior: a pixel of the predicted body through which the
             floor's joints still show is then background, one beside it that hides them
             subject) is the value to use. It raises the guided masks' IoU on all four
-            development sequences (d01 0.812 → 0.828, d04 0.829 → 0.900), but tracking
-            from colour frames came out worse on average (docs/accuracy.md, "Silhouettes
+            development sequences (d01 0.839 → 0.851, d02 0.931 → 0.944), but tracking
+            from colour frames came out worse on average, twice (docs/accuracy.md, "Silhouettes
             on the development set"), so it is off until that is understood.
         texture_window: side (pixels, odd) of the window the correlation is taken over.
         texture_min_std: the background's grey-level standard deviation over the window
