@@ -561,7 +561,10 @@ def test_a_wall_the_colour_of_the_subjects_shirt_stays_background(scene_share, r
     brown, blue = (40, 70, 120), (140, 60, 30)
     scene = np.full((h, w, 3), 120.0)
     scene[:25] = brown
-    noisy = lambda img: np.clip(img + rng.normal(0, 1.5, img.shape), 0, 255).astype(np.uint8)  # noqa: E731
+
+    def noisy(img):
+        return np.clip(img + rng.normal(0, 1.5, img.shape), 0, 255).astype(np.uint8)
+
     segmenter = GuidedSegmenter(StatisticalBackground(noisy(scene)), GuidedOptions(scene_share=scene_share))
 
     def frame(top):
