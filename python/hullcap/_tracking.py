@@ -167,14 +167,15 @@ class TrackerOptions:
         recheck_margin: once a search found nothing better than the tracked fit (the
             hull got worse, not the fit), the next frames pass without a search while
             their quality stays within this of that fit's, and each limb chain's within
-            this times ``chain_margin / quality_margin`` (twice: from frame to frame a
-            chain's quality moves about twice as much as the whole body's, median 0.009–
-            0.016 against 0.005–0.008 on the development set); a frame that drops further
-            is searched again, and the bar is lifted as soon as a fit passes the reference
-            again. With the whole body's margin for the chains too, most searches of
-            d01's bend from colour frames came from one chain dipping by a few hundredths. Without it every frame of a stretch where
-            the hull is poor (d01's legs the colour of the floor while the person bends
-            over) was searched, at 2.5 s a frame, until the reference's median caught up.
+            this times ``chain_margin / quality_margin``; a frame that drops further is
+            searched again, and the bar is lifted as soon as a fit passes the reference
+            again. Without this bar every frame of a stretch where the hull is poor (d01's
+            legs the colour of the floor while the person bends over) was searched, at
+            2.5 s a frame, until the reference's median caught up. The chains' bar is
+            twice as wide because a chain's quality moves about twice as much as the whole
+            body's from frame to frame (median 0.009–0.016 against 0.005–0.008 on the
+            development set); with the body's margin for them too, most searches of d01's
+            bend from colour frames came from one chain dipping by a few hundredths.
             ``None``: every frame that fails the reference is searched.
         min_subject_agreement: how well the subject's model, fitted in a frame, must
             agree with that frame's silhouettes (mean over the views of the intersection
