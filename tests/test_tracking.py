@@ -104,7 +104,7 @@ def test_a_fit_a_search_confirmed_is_the_bar_until_the_hull_is_whole_again(model
 
     def right_arm_dipped(by):
         counts = np.array(one_arm.link_counts, copy=True)
-        need = int(round(2 * by * counts[right, 0].sum()))
+        need = int(np.rint(2 * by * counts[right, 0].sum()))
         for link in right:
             take = min(need, counts[link, 1])
             counts[link, 1] -= take
