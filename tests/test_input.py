@@ -583,5 +583,6 @@ def test_a_wall_the_colour_of_the_subjects_shirt_stays_background(scene_share, r
         assert leak == 0.0
     else:  # knowing only the floor near the person, the colours call the panel subject
         assert leak > 0.1
-    with pytest.raises(ValueError, match="scene_share"):
-        GuidedOptions(scene_share=1.5)
+    for share in (1.0, 1.5):
+        with pytest.raises(ValueError, match="scene_share"):
+            GuidedOptions(scene_share=share)

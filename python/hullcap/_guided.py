@@ -69,8 +69,9 @@ class GuidedOptions:
             subject wears such a colour (a wooden panel on the 4-camera development
             sequence) it reads as subject, the background test's certainty counts only
             `background_weight` times, and the panel filled its part of the guided region
-            (one view's IoU 0.28). Half and half raised the guided masks' mean IoU on
-            every development sequence (d04 0.829 → 0.931, d03 0.864 → 0.936;
+            (one view's IoU 0.28). Below 1: the empty scene lacks colours the band has
+            (the subject's shadow), which must stay background. Half and half raised the
+            guided masks' mean IoU on every development sequence (d04 0.829 → 0.931, d03 0.864 → 0.936;
             docs/accuracy.md, "Silhouettes on the development set").
         learn_margin: a pixel teaches the subject's colours when it is this far inside the
             fitted model's outline, the background's when this far outside and within
@@ -115,8 +116,8 @@ class GuidedOptions:
     texture_hidden: float = 0.5
 
     def __post_init__(self):
-        if not 0 <= self.scene_share <= 1:
-            raise OptionsError(f"GuidedOptions.scene_share must lie in [0, 1], got {self.scene_share}")
+        if not 0 <= self.scene_share < 1:  # the band's colours always count: a scene lacks some
+            raise OptionsError(f"GuidedOptions.scene_share must lie in [0, 1), got {self.scene_share}")
         if not (self.texture_weight >= 0 and self.texture_min_std >= 0):
             raise OptionsError("GuidedOptions: texture_weight and texture_min_std must be >= 0")
         if not (self.texture_window >= 3 and self.texture_window % 2 == 1):
@@ -128,18 +129,17 @@ class GuidedOptions:
 
 class ColourModel:
     """Colour histograms of the subject and of the background around it, one camera,
-    and of the whole empty scene: the person may move in front of any of it, and a colour
-    of the scene that never lay near the person while it learnt (a wall's panelling) is
-    still background. The background's colour probability is the band's
-    and the scene's mixed, the scene's share `scene_share`."""
+    and of the whole empty scene (`scene`, an (H, W, 3) image): the person may move in
+    front of any of it, and a colour of the scene that never lay near the person while
+    it learnt (a wall's panelling) is still background. The background's colour
+    probability is the band's and the scene's mixed, the scene's share `scene_share`."""
 
-    def __init__(self, bins: int = 16, scene: np.ndarray | None = None, scene_share: float = 0.5):
+    def __init__(self, bins: int, scene: np.ndarray, scene_share: float):
         self.bins = bins
         self.subject = np.zeros(bins**3)
         self.background = np.zeros(bins**3)
-        self.scene = np.zeros(bins**3) if scene is None else np.bincount(self._index(scene).ravel(),
-                                                                          minlength=bins**3).astype(float)
-        self.scene_share = scene_share if scene is not None else 0.0
+        self.scene = np.bincount(self._index(scene).ravel(), minlength=bins**3).astype(float)
+        self.scene_share = scene_share
 
     def clear(self) -> None:
         """Forget what was learnt (the scene stays)."""
@@ -167,7 +167,7 @@ class ColourModel:
             return np.zeros(image.shape[:2], np.float32)
         s = np.log((self.subject + 1) / (self.subject.sum() + self.subject.size))
         band = (self.background + 1) / (self.background.sum() + self.background.size)
-        b = np.log((1 - self.scene_share) * band + self.scene_share * self.scene / max(self.scene.sum(), 1.0))
+        b = np.log((1 - self.scene_share) * band + self.scene_share * self.scene / self.scene.sum())
         return (s - b).astype(np.float32)[self._index(image)]
 
 

@@ -101,14 +101,13 @@ pub fn rasterize(
     threads: Option<usize>,
 ) -> Result<Rendered, RasterError> {
     let screens = screens(vertices, faces, width, height, near)?;
-    let mut pixels = vec![(f32::INFINITY, -1i32); width * height];
-    for_each_chunk_mut(
-        &mut pixels,
-        resolve_threads(threads),
-        width * BAND_ROWS,
-        |offset, chunk| {
-            draw_band(&screens, width, offset, chunk);
-        },
+    let pixels = paint(
+        &screens,
+        width,
+        height,
+        threads,
+        (f32::INFINITY, -1i32),
+        draw_band,
     )?;
     let (depth, face) = pixels.into_iter().unzip();
     Ok(Rendered { depth, face })
@@ -132,20 +131,31 @@ pub fn coverage(
     threads: Option<usize>,
 ) -> Result<Vec<u8>, RasterError> {
     let screens = screens(vertices, faces, width, height, near)?;
-    let mut pixels = vec![0u8; width * height];
-    for_each_chunk_mut(
-        &mut pixels,
-        resolve_threads(threads),
-        width * BAND_ROWS,
-        |offset, chunk| {
-            cover_band(&screens, width, offset, chunk);
-        },
-    )?;
-    Ok(pixels)
+    Ok(paint(&screens, width, height, threads, 0u8, cover_band)?)
 }
 
 /// Image rows per band of the parallel drawing.
 const BAND_ROWS: usize = 8;
+
+/// A `width` × `height` image of `blank` pixels, its bands of [`BAND_ROWS`] rows drawn by
+/// `band(screens, width, offset of the band's first pixel, the band)` on the threads.
+fn paint<T: Copy + Send>(
+    screens: &[Screen],
+    width: usize,
+    height: usize,
+    threads: Option<usize>,
+    blank: T,
+    band: fn(&[Screen], usize, usize, &mut [T]),
+) -> Result<Vec<T>, WorkerPanicked> {
+    let mut pixels = vec![blank; width * height];
+    for_each_chunk_mut(
+        &mut pixels,
+        resolve_threads(threads),
+        width * BAND_ROWS,
+        |offset, chunk| band(screens, width, offset, chunk),
+    )?;
+    Ok(pixels)
+}
 
 /// The triangles that can be seen, set up for edge tests; errors on a bad size or index.
 fn screens(

@@ -33,9 +33,9 @@ def draw_overlay(image, camera, vertices, faces, joints, joint_names, failed: bo
     if failed:
         cv2.putText(out, "fit failed", (10, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (0, 0, 255), 2, cv2.LINE_AA)
         return out
-    mask = render_silhouette(camera, vertices, faces).astype(np.uint8)
-    out[mask > 0] = (0.7 * out[mask > 0] + 0.3 * np.array(OUTLINE)).astype(np.uint8)
-    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    seen = render_silhouette(camera, vertices, faces)
+    out[seen] = (0.7 * out[seen] + 0.3 * np.array(OUTLINE)).astype(np.uint8)
+    contours, _ = cv2.findContours(seen.view(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     cv2.drawContours(out, contours, -1, OUTLINE, 1, cv2.LINE_AA)
     px, z = camera.project(joints)
     index = {n: i for i, n in enumerate(joint_names)}
