@@ -149,3 +149,44 @@ def test_a_search_ranks_at_the_resolution_of_the_stages():
         coarse=1, reverse_points=rank.reverse_points, reverse_vertices=rank.reverse_vertices)  # nothing else
     whole = TrackerOptions().calibration_fit
     assert PoseSearch(BodyModel.template(), whole)._rank_options == whole
+
+
+def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_finds(tmp_path, monkeypatch):
+    """The person jumps inside the window tracked for the subject's model: its search fits
+    candidates as tracking does (one round, coarse stages), and the pose it finds is fitted
+    again with the window's own fit before it stands."""
+    from hullcap._reacquire import PoseSearch
+    from hullcap._tracking import Tracker as TrackerClass
+
+    seq_path, truth, _ = render(tmp_path / "seq", JUMP, (0.7, 0.7, 0.0))
+    options = TrackerOptions(calibration_seconds=1.0)  # the window holds the jump
+    calls, in_window = [], []
+    refine, search, fit_from = TrackerClass._refine, PoseSearch.search, TrackerClass._fit_from
+
+    def spy_refine(self, *args):
+        in_window.append(True)
+        try:
+            return refine(self, *args)
+        finally:
+            in_window.clear()
+
+    def spy_search(self, *args):
+        found, spent = search(self, *args)
+        calls.append(("search", bool(in_window), self.fit_options, found.pose))
+        return found, spent
+
+    def spy_fit_from(self, state, target, start, fit_options):
+        calls.append(("fit", bool(in_window), fit_options, start))
+        return fit_from(self, state, target, start, fit_options)
+
+    monkeypatch.setattr(TrackerClass, "_refine", spy_refine)
+    monkeypatch.setattr(PoseSearch, "search", spy_search)
+    monkeypatch.setattr(TrackerClass, "_fit_from", spy_fit_from)
+    result = Tracker(Sequence(seq_path), options=options).run(tmp_path / "out", show_progress=False)
+    window = [c for c in calls if c[1]]
+    searches = [i for i, c in enumerate(window) if c[0] == "search"]
+    assert searches and all(window[i][2] is options.fit for i in searches)
+    refits = [i for i in searches if i + 1 < len(window) and window[i + 1][0] == "fit"
+              and window[i + 1][2] is options.calibration_fit and window[i + 1][3] is window[i][3]]
+    assert refits, window  # the pose the search found, fitted again with the window's fit
+    assert not result.failed[JUMP + 3:].any() and np.nanmax(errors(result, truth)[JUMP + 3:]) < 0.05
