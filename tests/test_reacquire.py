@@ -7,6 +7,7 @@ import pytest
 from hullcap import BodyModel, Sequence, Tracker, TrackerOptions, smooth_joints
 from hullcap._cameras import ring
 from hullcap._motions import motion_poses
+from hullcap._reacquire import PoseSearch
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
 from hullcap._synth import SUBJECTS, render_motion
 
@@ -99,7 +100,6 @@ def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
     explains the mesh fully and puts the shoulder back."""
     from hullcap._fitting import PoseParameters, fit, make_target, quality
     from hullcap._mesh import Surface
-    from hullcap._reacquire import PoseSearch
 
     model = BodyModel.template()
     names = list(model.dof_names)
@@ -138,8 +138,6 @@ def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
 def test_a_search_ranks_at_the_resolution_of_the_stages():
     """The tracker's fit pairs every second point in its stages; its search scores
     candidates on as many."""
-    from hullcap._reacquire import PoseSearch
-
     fit_options = TrackerOptions().fit
     rank = PoseSearch(BodyModel.template(), fit_options)._rank_options
     assert fit_options.coarse == 2 and rank.coarse == 1
@@ -155,13 +153,10 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
     """The person jumps inside the window tracked for the subject's model: its search fits
     candidates as tracking does (one round, coarse stages), and the pose it finds is fitted
     again with the window's own fit before it stands."""
-    from hullcap._reacquire import PoseSearch
-    from hullcap._tracking import Tracker as TrackerClass
-
     seq_path, truth, _ = render(tmp_path / "seq", JUMP, (0.7, 0.7, 0.0))
     options = TrackerOptions(calibration_seconds=1.0)  # the window holds the jump
     calls, in_window = [], []
-    refine, search, fit_from = TrackerClass._refine, PoseSearch.search, TrackerClass._fit_from
+    refine, search, fit_from = Tracker._refine, PoseSearch.search, Tracker._fit_from
 
     def spy_refine(self, *args):
         in_window.append(True)
@@ -179,9 +174,9 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
         calls.append(("fit", bool(in_window), fit_options, start))
         return fit_from(self, state, target, start, fit_options)
 
-    monkeypatch.setattr(TrackerClass, "_refine", spy_refine)
+    monkeypatch.setattr(Tracker, "_refine", spy_refine)
     monkeypatch.setattr(PoseSearch, "search", spy_search)
-    monkeypatch.setattr(TrackerClass, "_fit_from", spy_fit_from)
+    monkeypatch.setattr(Tracker, "_fit_from", spy_fit_from)
     result = Tracker(Sequence(seq_path), options=options).run(tmp_path / "out", show_progress=False)
     window = [c for c in calls if c[1]]
     searches = [i for i, c in enumerate(window) if c[0] == "search"]

@@ -146,12 +146,12 @@ class TrackerOptions:
             stages. With one, the poses of the demo's window moved the knee search's best
             gain from 0.00187 to 0.00201, over its threshold (``SubjectOptions.
             centre_min_gain``, 0.002), and the knees of our own template 2 cm off (demo
-            8.1 mm against 5.2). Nor are its stages coarse
-            (``coarse=1``): with every second point there, the knee search moved d02's
-            knee 3 cm the wrong way from colour frames (thigh −7 %, shin +7 %). Their
-            searches fit candidates with `fit`, and a pose a search finds is fitted again
-            with this one: 52 of the 54 searches of d01's window (from colour frames) only
-            confirmed the tracked fit, at 1.2 s each with this fit and 0.6 s with `fit`.
+            8.1 mm against 5.2). Nor are its stages coarse (``coarse=1``): with every
+            second point there, the knee search moved d02's knee 3 cm the wrong way from
+            colour frames (thigh −7 %, shin +7 %). Their searches fit candidates with
+            `fit`, and a pose a search finds is fitted again with this one: 52 of the 54
+            searches of d01's window (from colour frames) only confirmed the tracked fit,
+            at 1.2 s each with this fit and 0.6 s with `fit`.
         quality_window: the accepted frames (most recent) whose median quality is the
             reference a new frame is judged against.
         quality_margin: a fit passes without a search when its quality is at most this far
@@ -627,7 +627,7 @@ class Tracker:
                 if found is None or quality(searched) > quality(found):
                     found = searched
             best, status = state.decide(best, found)
-            if status == RECOVERED and state.search.fit_options is not options.fit:  # see _refine
+            if status == RECOVERED and state.refit_found:
                 polished = self._fit_from(state, target, best.pose, options.fit)
                 iterations += polished.iterations
                 if quality(polished) > quality(best):
@@ -689,7 +689,10 @@ class _State:
                  search_fit: FitOptions | None = None):
         self.model = model
         self.options = options
+        # The search fits its candidates with `search_fit` when given; a pose it finds is
+        # then fitted again with the options' own fit (the subject's window, Tracker._refine).
         self.search = PoseSearch(model, search_fit or options.fit, options.search, options.seed)
+        self.refit_found = search_fit is not None
         self.chains = chain_links(model)
         # The limbs are judged on their own; the trunk, most of the body, by the whole.
         self.limbs = [c for c, name in enumerate(CHAINS) if name != "trunk"]
