@@ -185,3 +185,31 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
               and window[i + 1][2] is options.calibration_fit and window[i + 1][3] is window[i][3]]
     assert refits, window  # the pose the search found, fitted again with the window's fit
     assert not result.failed[JUMP + 3:].any() and np.nanmax(errors(result, truth)[JUMP + 3:]) < 0.05
+
+
+def test_a_search_fits_only_candidates_that_explain_more_than_the_tracked_fit(monkeypatch):
+    """A tracked fit that explains the whole body: no candidate of the search, before
+    fitting, explains as much, none is fitted, and the chains are re-sampled from the
+    tracked fit. A tracked fit a metre from the body: candidates are fitted, and the
+    search finds the body."""
+    from hullcap import _reacquire
+    from hullcap._fitting import PoseParameters, fit, make_target, quality
+    from hullcap._mesh import Surface
+
+    model = BodyModel.template()
+    root = np.array([0.0, 0.0, model.rest_root_height])
+    posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
+    surface = Surface(posed.vertices, model.faces, posed.normals)
+    target = make_target(surface)
+    options = TrackerOptions()
+    tracked = fit(model, target, PoseParameters(np.zeros(model.n_dofs), np.eye(3), root), options.fit)
+    far = fit(model, target, PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [1.0, 0.0, 0.0]), options.fit)
+    fits, resampled = [], []
+    monkeypatch.setattr(_reacquire, "fit", lambda *args, **kwargs: fits.append(1) or fit(*args, **kwargs))
+    search = PoseSearch(model, options.fit)
+    with monkeypatch.context() as m:
+        m.setattr(PoseSearch, "resample", lambda self, target, start, chains: resampled.append(start) or (start, 0))
+        found, spent = search.search(target, surface, [], None, tracked)
+    assert found is tracked and resampled == [tracked] and spent == 0 and fits == []
+    found, spent = search.search(target, surface, [], None, far)
+    assert fits and spent > 0 and quality(found) > quality(far) + 0.3 and quality(found) > 0.9

@@ -8,8 +8,8 @@ starts from the hull instead:
    (arms down, arms up, a crouch, either leg raised), each turned to several headings
    about the vertical and moved so that its centroid lies on the hull's;
 2. all candidates scored at once by the engine (how much of the hull each explains both
-   ways, without fitting, at the resolution of the fit's stages), the best few fitted in
-   full;
+   ways, without fitting, at the resolution of the fit's stages), and the best few fitted
+   in full, those that explain more of the hull than the frame's tracked fit does;
 3. each limb chain of the best fit re-sampled on its own (joint angles drawn within their
    limits, the rest of the body held), scored, and the best sample fitted when it explains
    more of the hull.
@@ -197,8 +197,12 @@ class PoseSearch:
                 best = result
         return best, iterations
 
-    def search(self, target, surface, recent: list[PoseParameters], calibration: PoseParameters | None) -> tuple[FitResult, int]:
-        """The best fit found from the hull; returns it and the ICP iterations spent."""
+    def search(self, target, surface, recent: list[PoseParameters], calibration: PoseParameters | None,
+               tracked: FitResult | None = None) -> tuple[FitResult, int]:
+        """The best fit found from the hull, `tracked` (the frame's fit so far) included;
+        returns it and the ICP iterations spent. A candidate is fitted only when, before
+        fitting, it explains the hull better than `tracked` does, as a chain's draw is
+        (:meth:`resample`)."""
         centre = surface.vertices.mean(0)
         library = [p.theta for p in recent[: self.options.recent]]
         if calibration is not None:
@@ -211,10 +215,12 @@ class PoseSearch:
             for k in range(self.options.headings):
                 R = yaw_rotation(2 * np.pi * k / self.options.headings) @ last
                 candidates.append(PoseParameters(theta, R, centre - R @ offset))
-        ranked = self._rank(target, candidates)
+        ranked = self._rank(target, candidates + ([] if tracked is None else [tracked.pose]))
         iterations = 0
-        best = None
+        best = tracked
         for pose in ranked[: self.options.keep]:
+            if tracked is not None and pose is tracked.pose:
+                break
             result = fit(self.model, target, pose, self.fit_options)
             iterations += result.iterations
             if best is None or quality(result) > quality(best):

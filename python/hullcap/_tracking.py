@@ -622,7 +622,8 @@ class Tracker:
                 found, spent = state.search.resample(target, best, lost)
                 iterations += spent
             if found is None or not state.good(found):
-                searched, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose)
+                searched, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose,
+                                                      found)
                 iterations += spent
                 if found is None or quality(searched) > quality(found):
                     found = searched
