@@ -151,7 +151,8 @@ class TrackerOptions:
             colour frames (thigh −7 %, shin +7 %). Their searches fit candidates with
             `fit`, and a pose a search finds is fitted again with this one: 52 of the 54
             searches of d01's window (from colour frames) only confirmed the tracked fit,
-            at 1.2 s each with this fit and 0.6 s with `fit`.
+            at 1.2 s each with this fit and 0.6 s with `fit` (before a search fitted only
+            candidates that beat the tracked fit, docs/performance.md).
         quality_window: the accepted frames (most recent) whose median quality is the
             reference a new frame is judged against.
         quality_margin: a fit passes without a search when its quality is at most this far
@@ -622,11 +623,10 @@ class Tracker:
                 found, spent = state.search.resample(target, best, lost)
                 iterations += spent
             if found is None or not state.good(found):
-                searched, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose,
-                                                      found)
+                # The search keeps `found` unless it finds better.
+                found, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose,
+                                                   found)
                 iterations += spent
-                if found is None or quality(searched) > quality(found):
-                    found = searched
             best, status = state.decide(best, found)
             if status == RECOVERED and state.refit_found:
                 polished = self._fit_from(state, target, best.pose, options.fit)
