@@ -372,7 +372,8 @@ impl Rig {
                         }
                     }
                     if moves {
-                        root.rotation * pose.dof_axis[d].cross(&(moved - weight * pose.position[link]))
+                        root.rotation
+                            * pose.dof_axis[d].cross(&(moved - weight * pose.position[link]))
                     } else {
                         // Most of a vertex's columns: a DOF none of its links turns with.
                         Vector3::zeros()
