@@ -359,7 +359,6 @@ impl Rig {
                     let link = dofs[d].link;
                     let mut moved = Vector3::zeros();
                     let mut weight = 0.0;
-                    let mut moves = false;
                     for (c, at) in placed.iter().enumerate().take(k) {
                         if self
                             .skeleton
@@ -368,15 +367,14 @@ impl Rig {
                             let w = self.weights.weight[i * k + c];
                             moved += w * at;
                             weight += w;
-                            moves = true;
                         }
                     }
-                    if moves {
+                    if weight == 0.0 {
+                        // Most of a vertex's columns: a DOF none of its weighted links turns with.
+                        Vector3::zeros()
+                    } else {
                         root.rotation
                             * pose.dof_axis[d].cross(&(moved - weight * pose.position[link]))
-                    } else {
-                        // Most of a vertex's columns: a DOF none of its links turns with.
-                        Vector3::zeros()
                     }
                 }
             }
