@@ -136,3 +136,31 @@ def test_a_knee_centre_is_found_from_frames_where_the_knee_bends():
                           options) == (template, 0.0)
     with pytest.raises(OptionsError, match="centre_samples"):
         SubjectOptions(centre_samples=0)
+
+
+def test_a_knee_move_follows_the_mean_profile_however_the_frames_scatter():
+    """The move of the knee search from its profile (moves × frames): the peak of the mean
+    quality, between the grid's points by a parabola, taken when it gains the least gain
+    over keeping the centre, however much single frames disagree about it. (At 413e72f a
+    move also had to gain twice its standard error, and one frame more or less decided
+    whether d01's knee moved 4 cm or not at all; docs/accuracy.md.)"""
+    from hullcap._subject import best_move
+
+    moves = 0.01 * np.arange(-4, 5)
+    peak = 0.023
+    mean = 0.80 - 5.0 * (moves - peak) ** 2  # exactly a parabola: its vertex is found exactly
+    assert best_move(moves, mean[:, None], SubjectOptions()) == pytest.approx(peak, abs=1e-9)
+    # Eight frames tilted alternately either way about the same mean: each frame's own best
+    # lies at an end of the range, the gain at +2 cm (0.0026) is under twice its standard
+    # error over the frames, and still the move is made.
+    tilts = np.array([0.6, -0.6] * 4)
+    frames = mean[:, None] + moves[:, None] * tilts
+    assert set(moves[np.argmax(frames, axis=0)]) == {moves[0], moves[-1]}
+    gains = frames[6] - frames[4]
+    assert gains.mean() < 2 * gains.std(ddof=1) / np.sqrt(8)
+    assert best_move(moves, frames) == pytest.approx(peak, abs=1e-9)
+    # A profile that gains less than the least gain (the refits' noise) moves nothing.
+    flat = 0.80 + 0.001 * np.exp(-((moves - 0.03) / 0.01) ** 2)
+    assert best_move(moves, np.repeat(flat[:, None], 8, axis=1), SubjectOptions()) == 0.0
+    assert best_move(moves, np.repeat(flat[:, None], 8, axis=1), SubjectOptions(centre_min_gain=0.0005)) == \
+        pytest.approx(0.03, abs=0.005)

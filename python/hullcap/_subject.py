@@ -31,7 +31,8 @@ from hullcap._mesh import Surface
 from hullcap._shape import ShapeBasis, ShapeParameter
 from hullcap.errors import FitError, ModelError, OptionsError
 
-__all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent_frames", "search_centres"]
+__all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent_frames", "search_centres",
+           "best_move"]
 
 
 @dataclass(frozen=True)
@@ -292,18 +293,29 @@ def search_centres(model: BodyModel, joint: str, axis: str, targets, poses,
     for move in moves:
         moved = model.shaped(basis, [move]).reskinned() if move else model
         per_frame.append([quality(fit(moved, t, p, refit)) for t, p in zip(targets, poses)])
-    per_frame = np.array(per_frame)
-    scores = per_frame.mean(axis=1)
-    best = int(np.argmax(scores))
-    if scores[best] - scores[steps] < options.centre_min_gain:  # against keeping the centre
-        return model, 0.0
+    move = best_move(moves, np.array(per_frame), options)
+    return (model.shaped(basis, [move]).reskinned(), move) if move else (model, 0.0)
+
+
+def best_move(moves, per_frame, options: SubjectOptions | None = None) -> float:
+    """The move of :func:`search_centres` from its profile: `moves` (M,), spaced by
+    ``options.centre_step`` and symmetric about 0, and the quality of each frame's refit
+    at each (M, F). The best
+    mean quality, refined by a parabola through its neighbours, if it gains at least
+    ``options.centre_min_gain`` over the middle move (keeping the centre); else 0."""
+    options = options or SubjectOptions()
+    moves = np.asarray(moves, float)
+    scores = np.asarray(per_frame, float).mean(axis=1)
+    best, keep = int(np.argmax(scores)), len(moves) // 2
+    if scores[best] - scores[keep] < options.centre_min_gain:
+        return 0.0
     move = float(moves[best])
     if 0 < best < len(moves) - 1:
         below, at, above = scores[best - 1], scores[best], scores[best + 1]
         curvature = below - 2 * at + above
         if curvature < 0:  # the peak lies between the neighbours of the best move
             move += options.centre_step * 0.5 * (below - above) / curvature
-    return model.shaped(basis, [move]).reskinned(), move
+    return move
 
 
 def _limited(model: BodyModel, limits: dict) -> BodyModel:
