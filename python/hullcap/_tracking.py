@@ -114,7 +114,9 @@ class TrackerOptions:
             frames/s, d01 exact 6.0 → 10–13) and lowered the error of six runs of eight
             (d03 from exact masks +1.1 mm), but on the 4-camera d04 from colour frames one run of
             three lost the left forearm for 30 frames (MPJPE 17.9 → 26.5 mm), which the
-            hierarchical fit never did in eight runs. The first seconds tracked to refine
+            hierarchical fit never did in eight runs; since tracking makes one round of
+            coarse stages it gains no speed, and d02 from colour frames lost 15 mm with it
+            (docs/performance.md). The first seconds tracked to refine
             the subject's model (`refine_joints`) never use it: the model is built from
             those poses once, and quick fits there moved its limb lengths by up to 4.6
             percentage points.
