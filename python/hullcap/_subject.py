@@ -300,9 +300,9 @@ def search_centres(model: BodyModel, joint: str, axis: str, targets, poses,
 def best_move(moves, per_frame, options: SubjectOptions | None = None) -> float:
     """The move of :func:`search_centres` from its profile: `moves` (M,), spaced by
     ``options.centre_step`` and symmetric about 0, and the quality of each frame's refit
-    at each (M, F). The best
-    mean quality, refined by a parabola through its neighbours, if it gains at least
-    ``options.centre_min_gain`` over the middle move (keeping the centre); else 0."""
+    at each (M, F). The move of best mean quality, refined by a parabola through its
+    neighbours, if it gains at least ``options.centre_min_gain`` over the middle move
+    (keeping the centre); else 0."""
     options = options or SubjectOptions()
     moves = np.asarray(moves, float)
     scores = np.asarray(per_frame, float).mean(axis=1)
