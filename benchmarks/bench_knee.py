@@ -26,10 +26,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
 import hullcap._tracking as tracking  # noqa: E402
-from hullcap._fitting import fit, quality  # noqa: E402
 from hullcap._sequence import Sequence  # noqa: E402
-from hullcap._shape import ShapeBasis  # noqa: E402
-from hullcap._subject import best_move  # noqa: E402
+from hullcap._subject import best_move, centre_profile  # noqa: E402
 
 
 class _Searched(Exception):
@@ -59,21 +57,6 @@ def search_inputs(sequence: Path, exact: bool) -> _Searched | None:
     return None
 
 
-def profile(found: _Searched) -> tuple[np.ndarray, np.ndarray]:
-    """``(moves, quality)``: the grid of the search and each frame's refit at each (M, F)."""
-    options = found.options
-    name = f"centre:{found.joint}:{found.axis}"
-    basis = ShapeBasis(p for p in ShapeBasis.standard(found.model.link_model).parameters if p.name == name)
-    steps = int(round(options.centre_range / options.centre_step))
-    moves = options.centre_step * np.arange(-steps, steps + 1)
-    refit = options.fit.replace(reverse_points=options.centre_samples)
-    rows = []
-    for move in moves:
-        moved = found.model.shaped(basis, [move]).reskinned() if move else found.model
-        rows.append([quality(fit(moved, t, p, refit)) for t, p in zip(found.targets, found.poses)])
-    return moves, np.array(rows)
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--devset", help="the development set's folder (default $HULLCAP_DEVSET or ../shared/devset)")
@@ -97,7 +80,8 @@ def main():
             # A knee moved up by m (body z) shortens the thigh by m: the truth's move is
             # the model's thigh length less the truth's.
             wanted = devset.model_limb_lengths(found.model)["thigh"] - truth["thigh"]
-            moves, per_frame = profile(found)
+            moves, per_frame = centre_profile(found.model, found.joint, found.axis, found.targets, found.poses,
+                                              found.options)
             move = best_move(moves, per_frame, found.options)
             left_out = [best_move(moves, np.delete(per_frame, k, axis=1), found.options)
                         for k in range(per_frame.shape[1])]

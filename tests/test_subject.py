@@ -140,8 +140,8 @@ def test_a_knee_centre_is_found_from_frames_where_the_knee_bends():
 
 def test_a_knee_move_follows_the_mean_profile_however_the_frames_scatter():
     """The move of the knee search from its profile (moves × frames): the peak of the mean
-    quality, between the grid's points by a parabola, taken when it gains the least gain
-    over keeping the centre, however much single frames disagree about it. (At 413e72f a
+    quality, between the grid's points by a parabola, taken when it gains at least the least
+    gain over keeping the centre, however much single frames disagree about it. (At 413e72f a
     move also had to gain twice its standard error, and one frame more or less decided
     whether d01's knee moved 4 cm or not at all; docs/accuracy.md.)"""
     from hullcap._subject import best_move

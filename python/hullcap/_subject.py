@@ -32,7 +32,7 @@ from hullcap._shape import ShapeBasis, ShapeParameter
 from hullcap.errors import FitError, ModelError, OptionsError
 
 __all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent_frames", "search_centres",
-           "best_move"]
+           "centre_profile", "best_move"]
 
 
 @dataclass(frozen=True)
@@ -282,19 +282,24 @@ def search_centres(model: BodyModel, joint: str, axis: str, targets, poses,
     options = options or SubjectOptions()
     if not targets:
         return model, 0.0
-    name = f"centre:{joint}:{axis}"
-    basis = ShapeBasis(p for p in ShapeBasis.standard(model.link_model).parameters if p.name == name)
-    if not len(basis):
-        raise OptionsError(f"SubjectOptions.centre_search: no shape parameter {name!r} for this model")
+    move = best_move(*centre_profile(model, joint, axis, targets, poses, options), options)
+    return _centre_moved(model, joint, axis, move), move
+
+
+def centre_profile(model: BodyModel, joint: str, axis: str, targets, poses,
+                   options: SubjectOptions | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(moves, per_frame)`` of :func:`search_centres`: the moves of `joint`'s centre
+    along `axis` that ``options.centre_range`` and ``options.centre_step`` give (M,), and
+    the quality of each of `targets` refitted from its pose in `poses` with each (M, F)."""
+    options = options or SubjectOptions()
     steps = int(round(options.centre_range / options.centre_step))
     moves = options.centre_step * np.arange(-steps, steps + 1)
-    per_frame = []
     refit = options.fit.replace(reverse_points=options.centre_samples)
+    per_frame = []
     for move in moves:
-        moved = model.shaped(basis, [move]).reskinned() if move else model
+        moved = _centre_moved(model, joint, axis, move)
         per_frame.append([quality(fit(moved, t, p, refit)) for t, p in zip(targets, poses)])
-    move = best_move(moves, np.array(per_frame), options)
-    return (model.shaped(basis, [move]).reskinned(), move) if move else (model, 0.0)
+    return moves, np.array(per_frame)
 
 
 def best_move(moves, per_frame, options: SubjectOptions | None = None) -> float:
@@ -316,6 +321,18 @@ def best_move(moves, per_frame, options: SubjectOptions | None = None) -> float:
         if curvature < 0:  # the peak lies between the neighbours of the best move
             move += options.centre_step * 0.5 * (below - above) / curvature
     return move
+
+
+def _centre_moved(model: BodyModel, joint: str, axis: str, move: float) -> BodyModel:
+    """`model` with the centre of `joint` (both sides) moved by `move` metres along body
+    `axis` and re-skinned; `model` itself for no move."""
+    if not move:
+        return model
+    name = f"centre:{joint}:{axis}"
+    basis = ShapeBasis(p for p in ShapeBasis.standard(model.link_model).parameters if p.name == name)
+    if not len(basis):
+        raise OptionsError(f"SubjectOptions.centre_search: no shape parameter {name!r} for this model")
+    return model.shaped(basis, [move]).reskinned()
 
 
 def _limited(model: BodyModel, limits: dict) -> BodyModel:
