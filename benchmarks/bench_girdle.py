@@ -1,0 +1,130 @@
+"""Raised arms on the development set: how low the tracked shoulders sit, and whether the
+fit itself prefers them there (docs/accuracy.md, "What is left").
+
+For each run of ``bench_devset.py`` (its model and tracked poses), the frames where a
+true wrist is 20 cm or more above its shoulder count as raised. The script prints the
+mean height error of the shoulders there and elsewhere, then refits some raised frames
+from their tracked pose as tracking fits them, and from that pose with each clavicle's
+elevation set to 20°, 30° and 40° (the shoulder's abduction taking the difference, so
+that the arm points the same way at the start). For each start: the clavicles'
+elevation after the fit, the shoulders' height error, and the fit's quality (what the
+tracker ranks fits by) and energy. Starts that end nearer the true shoulders with a lower
+quality say the model's own fit prefers the low shoulder; starts that end there with a
+higher one say tracking missed a better minimum.
+
+    .venv/bin/python benchmarks/bench_girdle.py [--runs DIR] [--frames 6]
+
+Under a minute per run on 2 cores (the hulls of the chosen frames and four fits each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import devset  # noqa: E402
+from hullcap._fitting import PoseParameters, fit, make_target, quality  # noqa: E402
+from hullcap._results import load_result  # noqa: E402
+from hullcap._sequence import Sequence  # noqa: E402
+from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
+
+RAISED = 0.20
+"""A wrist this far (m) above its shoulder, in the truth, raises the arm."""
+ELEVATIONS = (20.0, 30.0, 40.0)
+"""Clavicle elevations (degrees) the extra starts set."""
+
+
+def shoulder_height_errors(names, joints, truth: devset.Truth) -> np.ndarray:
+    """(F, 2) height of our left and right shoulders minus the truth's (m)."""
+    return np.stack([joints[:, list(names).index(f"{s}_shoulder"), 2] -
+                     truth.positions[: len(joints), truth.names.index(f"{s}_shoulder"), 2] for s in "lr"], axis=1)
+
+
+def raised_arms(truth: devset.Truth) -> np.ndarray:
+    """(F, 2) bool: the truth's left and right wrist at least RAISED above its shoulder."""
+    return np.stack([truth.positions[:, truth.names.index(f"{s}_wrist"), 2] -
+                     truth.positions[:, truth.names.index(f"{s}_shoulder"), 2] >= RAISED for s in "lr"], axis=1)
+
+
+def with_clavicles(model, pose: PoseParameters, degrees: float) -> PoseParameters:
+    """`pose` with both clavicles elevated by `degrees`, each shoulder's abduction
+    lowered by what its clavicle gained."""
+    theta, dofs = pose.theta.copy(), list(model.dof_names)
+    for s in "lr":
+        clavicle, shoulder = dofs.index(f"{s}_clavicle_elevation"), dofs.index(f"{s}_shoulder_abduction")
+        gain = np.radians(degrees) - theta[clavicle]
+        theta[clavicle] += gain
+        theta[shoulder] -= gain
+    return PoseParameters(model.clamp(theta), pose.root_rotation, pose.root_translation)
+
+
+def summary(result, truth: devset.Truth) -> np.ndarray:
+    """Prints how low the shoulders sit with a raised arm; returns the frames with one."""
+    raised = raised_arms(truth)[: len(result.joints)]
+    dz = shoulder_height_errors(result.model.joint_names, result.joints, truth) * 1e3
+    left, right = (np.nanmean(dz[:, i][raised[:, i]]) for i in (0, 1))
+    either = raised.any(axis=1) & ~result.failed
+    print(f"{either.sum()} of {len(either)} frames with a raised arm; shoulder height error there "
+          f"{np.nanmean(dz[raised]):+.0f} mm (left {left:+.0f}, right {right:+.0f}), "
+          f"elsewhere {np.nanmean(dz[~raised]):+.0f} mm")
+    return np.flatnonzero(either)
+
+
+def refits(sequence: Path, result, truth: devset.Truth, exact: bool, frames) -> None:
+    """Prints the fits of `frames` from the tracked pose and from raised clavicles."""
+    model, dofs = result.model, list(result.model.dof_names)
+    options = TrackerOptions(use_silhouettes=exact)
+    tracker = Tracker(Sequence(sequence), model=model, options=options)
+    rows = {}
+    for f in frames:
+        target = make_target(tracker.hull(f, (model, result.pose(f - 1))))
+        starts = {"tracked": result.pose(f)}
+        starts.update({f"clavicles {d:.0f}°": with_clavicles(model, result.pose(f), d) for d in ELEVATIONS})
+        for label, start in starts.items():
+            fitted = fit(model, target, start, options.fit)
+            p = fitted.pose
+            joints = model.pose(p.theta, p.root_rotation, p.root_translation).joints[None]
+            dz = shoulder_height_errors(model.joint_names, joints, devset.Truth(truth.names, truth.positions[[f]]))
+            clavicles = np.degrees([p.theta[dofs.index(f"{s}_clavicle_elevation")] for s in "lr"])
+            rows.setdefault(label, []).append((*clavicles, *(dz[0] * 1e3), quality(fitted), fitted.energy))
+    print(f"  {len(frames)} raised frames refitted ({', '.join(map(str, frames))}); means over them:")
+    print("  | start | clavicles after (°, l / r) | shoulder height error (mm, l / r) | quality | energy |")
+    print("  |---|---|---|---|---|")
+    for label, values in rows.items():
+        m = np.mean(values, axis=0)
+        print(f"  | {label} | {m[0]:.0f} / {m[1]:.0f} | {m[2]:+.0f} / {m[3]:+.0f} | {m[4]:.4f} | {m[5]:.4f} |")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--runs", default=str(devset.CACHE / "results"), help="where bench_devset.py wrote its runs")
+    ap.add_argument("--frames", type=int, default=6, help="raised frames refitted per run")
+    args = ap.parse_args()
+    where = devset.find()
+    if where is None:
+        raise SystemExit("the development set is not here: set HULLCAP_DEVSET")
+    found = False
+    for name in devset.names(where):
+        sequence = devset.render(where, name)
+        truth = devset.Truth.load(where, sequence)
+        for mode in ("colour", "exact"):
+            run = Path(args.runs) / f"{name}-{mode}"
+            if (run / "pose.npz").is_file():
+                found = True
+                result = load_result(run)
+                print(f"{name} ({mode}): ", end="")
+                raised = summary(result, truth)
+                raised = raised[raised > 0]  # each hull is guided by the frame before
+                if len(raised):
+                    pick = np.linspace(0, len(raised) - 1, min(args.frames, len(raised))).round().astype(int)
+                    refits(sequence, result, truth, mode == "exact", [int(f) for f in raised[pick]])
+    if not found:
+        raise SystemExit(f"no runs in {args.runs}: run benchmarks/bench_devset.py first")
+
+
+if __name__ == "__main__":
+    main()
