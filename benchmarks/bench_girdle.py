@@ -14,7 +14,7 @@ higher one say tracking missed a better minimum.
 
     .venv/bin/python benchmarks/bench_girdle.py [--runs DIR] [--frames 6]
 
-Under a minute per run on 2 cores (the hulls of the chosen frames and four fits each).
+About 15 s for the eight runs on 2 cores (the hulls of the chosen frames, four fits each).
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def raised_arms(truth: devset.Truth) -> np.ndarray:
 
 
 def with_clavicles(model, pose: PoseParameters, degrees: float) -> PoseParameters:
-    """`pose` with both clavicles elevated by `degrees`, each shoulder's abduction
+    """`pose` with both clavicles' elevation set to `degrees`, each shoulder's abduction
     lowered by what its clavicle gained."""
     theta, dofs = pose.theta.copy(), list(model.dof_names)
     for s in "lr":
@@ -104,6 +104,8 @@ def main():
     ap.add_argument("--runs", default=str(devset.CACHE / "results"), help="where bench_devset.py wrote its runs")
     ap.add_argument("--frames", type=int, default=6, help="raised frames refitted per run")
     args = ap.parse_args()
+    if args.frames < 1:
+        ap.error("--frames must be at least 1")
     where = devset.find()
     if where is None:
         raise SystemExit("the development set is not here: set HULLCAP_DEVSET")
@@ -118,7 +120,8 @@ def main():
                 result = load_result(run)
                 print(f"{name} ({mode}): ", end="")
                 raised = summary(result, truth)
-                raised = raised[raised > 0]  # each hull is guided by the frame before
+                # Each hull is guided by the tracked pose of the frame before.
+                raised = raised[(raised > 0) & ~result.failed[np.maximum(raised - 1, 0)]]
                 if len(raised):
                     pick = np.linspace(0, len(raised) - 1, min(args.frames, len(raised))).round().astype(int)
                     refits(sequence, result, truth, mode == "exact", [int(f) for f in raised[pick]])
