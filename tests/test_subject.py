@@ -8,7 +8,8 @@ import pytest
 from hullcap import BodyModel, FitOptions, PoseParameters, Surface, build_subject
 from hullcap._fitting import yaw_rotation
 from hullcap._shape import ShapeBasis
-from hullcap._subject import SubjectOptions
+from hullcap._subject import SubjectOptions, with_hands
+from hullcap._tracking import TrackerOptions
 from hullcap.errors import OptionsError
 
 
@@ -85,6 +86,33 @@ def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     truth_joints = truth_model.pose(poses[0].theta, poses[0].root_rotation, poses[0].root_translation).joints
     assert np.linalg.norm(placed.joints - truth_joints, axis=1).mean() < 0.01
     assert subject.fit.coverage > 0.95 and subject.fit.inlier_fraction > 0.95
+
+
+def test_tracking_keeps_the_part_of_each_hand_a_hull_shows():
+    """Each hand is pulled toward its wrist along the forearm to the reach asked of its
+    length; nothing else moves, and the skin and the joints stay the template's."""
+    template = BodyModel.template()
+    short = with_hands(template, 0.6)
+    links, before, after = template.link_model, template.vertices, short.vertices
+    moved = np.linalg.norm(after - before, axis=1) > 0
+    assert 300 < moved.sum() < 1000  # the two hands, not the forearms
+    for side in "lr":
+        wrist = links.joint_points[links.joint_names.index(f"{side}_wrist")]
+        along = wrist - links.segments[links.names.index(f"{side}_forearm"), 0]
+        along /= np.linalg.norm(along)
+        hand = moved & (np.sign(before[:, 0]) == np.sign(wrist[0]))
+        beyond, now = (before[hand] - wrist) @ along, (after[hand] - wrist) @ along
+        assert beyond.min() > 0 and np.allclose(now, 0.6 * beyond)
+        assert np.allclose(after[hand] - np.outer(now, along), before[hand] - np.outer(beyond, along))
+        assert 0.15 < beyond.max() < 0.25  # wrist to fingertips, about 19 cm on the template
+    assert all(np.array_equal(a, b) for a, b in zip(short.skin, template.skin))
+    assert np.array_equal(short.pose().joints, template.pose().joints)
+    assert with_hands(template, 1.0) is template
+    for bad in (0.0, 1.5):
+        with pytest.raises(OptionsError, match="hand_reach must be in"):
+            TrackerOptions(hand_reach=bad)
+        with pytest.raises(OptionsError, match="hand reach must be in"):
+            with_hands(template, bad)
 
 
 def test_shape_bases_refuse_what_they_cannot_mean():

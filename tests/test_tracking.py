@@ -10,6 +10,7 @@ from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._evaluate import accuracy
 from hullcap._sequence import Sequence
+from hullcap._subject import with_hands
 from hullcap._synth import synthesize
 from hullcap._tracking import quick_fit_options
 
@@ -141,6 +142,15 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     fast = again.run(tmp_path / "quick", show_progress=False)
     assert accuracy(fast, short_sequence).mean_mm < 25
     assert fast.iterations.sum() < 0.7 * result.iterations.sum()
+
+
+def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(short_sequence):
+    model = BodyModel.template()
+    state = Tracker(Sequence(short_sequence), options=TrackerOptions(hand_reach=0.6))._tracking_state(model)
+    assert state.guide is model and state.search.model is state.model
+    assert np.array_equal(state.model.vertices, with_hands(model, 0.6).vertices)
+    whole = Tracker(Sequence(short_sequence), options=TrackerOptions(hand_reach=1.0))._tracking_state(model)
+    assert whole.model is model and whole.guide is model
 
 
 def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, tmp_path):

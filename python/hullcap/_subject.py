@@ -32,7 +32,7 @@ from hullcap._shape import ShapeBasis, ShapeParameter
 from hullcap.errors import FitError, ModelError, OptionsError
 
 __all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent_frames", "search_centres",
-           "centre_profile", "best_move"]
+           "centre_profile", "best_move", "with_hands"]
 
 
 @dataclass(frozen=True)
@@ -347,6 +347,32 @@ def _limited(model: BodyModel, limits: dict) -> BodyModel:
             raise OptionsError(f"SubjectOptions.calibration_limits: {e}") from e
     b, k = model.skin_parameters
     return BodyModel(replace(links, dof_limits=new), model.vertices, model.faces, skin=model.skin, b=b, k=k)
+
+
+def with_hands(model: BodyModel, reach: float) -> BodyModel:
+    """`model` with each hand (the vertices its forearm link carries most, beyond the
+    wrist along the forearm) pulled toward the wrist to `reach` (0 < reach ≤ 1) of its
+    length; the same skin weights and joints. `model` itself for a reach of 1 or a model
+    without forearms and wrists. What tracking fits (``TrackerOptions.hand_reach``)."""
+    if not 0 < reach <= 1:
+        raise OptionsError(f"hand reach must be in (0, 1], got {reach}")
+    links = model.link_model
+    sides = [s for s in "lr" if f"{s}_forearm" in links.names and f"{s}_wrist" in links.joint_names]
+    if reach == 1 or not sides:
+        return model
+    vertices = model.vertices
+    index, weight = model.skin
+    dominant = index[np.arange(len(index)), np.argmax(weight, axis=1)]
+    for s in sides:
+        forearm = links.names.index(f"{s}_forearm")
+        wrist = links.joint_points[links.joint_names.index(f"{s}_wrist")]
+        along = wrist - links.segments[forearm, 0]
+        along = along / np.linalg.norm(along)
+        beyond = (vertices - wrist) @ along
+        hand = (dominant == forearm) & (beyond > 0)
+        vertices[hand] -= np.outer((1 - reach) * beyond[hand], along)
+    b, k = model.skin_parameters
+    return BodyModel(links, vertices, model.faces, skin=(index, weight), b=b, k=k)
 
 
 def _height(vertices) -> float:

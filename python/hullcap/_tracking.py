@@ -53,7 +53,7 @@ from hullcap._render import render_silhouette
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
-from hullcap._subject import SubjectOptions, bent_frames, build_subject, place_model, search_centres
+from hullcap._subject import SubjectOptions, bent_frames, build_subject, place_model, search_centres, with_hands
 from hullcap._threads import ReadAhead, over_views
 from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 
@@ -204,6 +204,20 @@ class TrackerOptions:
             development set it moved MPJPE by −1.4 to +1.4 mm, 0.25 mm worse on average
             (docs/accuracy.md); the fold it guards against came once, in one run.
         motion_prior_distance: metres of pair distance one `motion_sigma` is worth.
+        hand_reach: the part of each hand (wrist to fingertips) the fits of tracking keep
+            (:func:`hullcap._subject.with_hands`): the sequence is fitted with the
+            subject's model whose hands are pulled toward the wrists to this fraction of
+            their length. The link model has no wrist joint, so a hand turns rigidly with
+            its forearm, and a visual hull keeps the palm but loses spread fingers: a hand
+            of full length then meets a bent or fingerless hand in the hull, and the fit
+            may slide the whole arm along its line to match them. The subject's model
+            itself keeps its whole hands: it is built with them (built with short ones,
+            the shape fit stretched the forearms to fill the hull's hands), saved with
+            them, and the silhouettes are guided by it. 1 (default) fits the whole
+            hands. With exact masks 0.6 made every development run as good or better
+            (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms raised, 26 → 14 mm low); from
+            colour frames it gained nothing, and at 0.7 one run was lost from its 75th
+            frame on (docs/accuracy.md, "Hands as the hull sees them").
         read_ahead: frames decoded and put through the background test on a second
             thread while the engine fits the frame before (:mod:`hullcap._threads`); 0
             reads each frame when it is tracked. The results are the same either way.
@@ -234,6 +248,7 @@ class TrackerOptions:
     search: SearchOptions = field(default_factory=SearchOptions)
     motion_sigma: float | None = None
     motion_prior_distance: float = 0.003
+    hand_reach: float = 1.0
     read_ahead: int = 2
     seed: int = 0
 
@@ -245,6 +260,8 @@ class TrackerOptions:
         if self.motion_sigma is not None and not (self.motion_sigma > 0 and self.motion_prior_distance >= 0):
             raise OptionsError(f"motion_sigma must be positive (or None) and motion_prior_distance >= 0, got "
                                f"{self.motion_sigma} and {self.motion_prior_distance}")
+        if not 0 < self.hand_reach <= 1:
+            raise OptionsError(f"hand_reach must be in (0, 1], got {self.hand_reach}")
         if self.read_ahead < 0:
             raise OptionsError(f"read_ahead must be >= 0, got {self.read_ahead}")
         if self.recheck_margin is not None and not self.recheck_margin >= 0:
@@ -450,9 +467,9 @@ class Tracker:
             self.seconds["subject"] += time.perf_counter() - t0
             model.save(out / "model")
             result = TrackingResult.empty(model, n, self.sequence.fps)
-            state = _State(model, self.options, anchor)
+            state = self._tracking_state(model, start, anchor)
         else:
-            state = _State(result.model, self.options, None)
+            state = self._tracking_state(result.model)
             state.remember(result, start)
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
@@ -579,13 +596,23 @@ class Tracker:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
 
+    def _tracking_state(self, model: BodyModel, first: int | None = None, anchor: FitResult | None = None) -> _State:
+        """The state of tracking a sequence with `model`: its fits take the model with the
+        hands of ``options.hand_reach``, the silhouettes are guided by `model` itself. The
+        anchor (the fit at frame `first`) is fitted again with those hands."""
+        fitted = with_hands(model, self.options.hand_reach)
+        if anchor is not None and fitted is not model:
+            target = make_target(self.hull(first, (model, anchor.pose)))
+            anchor = fit(fitted, target, anchor.pose, self.options.subject.fit)
+        return _State(fitted, self.options, anchor, guide=model)
+
     def _track(self, state: _State, result: TrackingResult, frame: int) -> None:
         """Fit one frame, judge it, search when needed, and record it, by the state's
         options. Its silhouettes are guided by the predicted pose when the frame before
         was tracked (after a failure, a wrong prediction would hide the person it missed)."""
         starts = state.starts(result, frame)
         follows = frame > 0 and not result.failed[frame - 1]
-        prior = (state.model, starts[0]) if starts and (follows or state.anchor_only(result, frame)) else None
+        prior = (state.guide, starts[0]) if starts and (follows or state.anchor_only(result, frame)) else None
         try:
             surface = self.hull(frame, prior)
         except ValueError as e:  # no usable view in this frame
@@ -685,12 +712,14 @@ class _Input:
 
 
 class _State:
-    """What tracking carries from frame to frame: the model, the search, the reference
-    quality and the pose tracking started from."""
+    """What tracking carries from frame to frame: the model it fits and the one that
+    guides the silhouettes (`guide`, default the same), the search, the reference quality
+    and the pose tracking started from."""
 
     def __init__(self, model: BodyModel, options: TrackerOptions, anchor: FitResult | None,
-                 search_fit: FitOptions | None = None):
+                 search_fit: FitOptions | None = None, guide: BodyModel | None = None):
         self.model = model
+        self.guide = guide or model
         self.options = options
         # The search fits its candidates with `search_fit` when given; a pose it finds is
         # then fitted again with the options' own fit (the subject's window, Tracker._refine).
