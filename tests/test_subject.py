@@ -88,7 +88,7 @@ def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     assert subject.fit.coverage > 0.95 and subject.fit.inlier_fraction > 0.95
 
 
-def test_tracking_keeps_the_part_of_each_hand_a_hull_shows():
+def test_with_hands_pulls_each_hand_toward_its_wrist():
     """Each hand is pulled toward its wrist along the forearm to the reach asked of its
     length; nothing else moves, and the skin and the joints stay the template's."""
     template = BodyModel.template()

@@ -215,9 +215,10 @@ class TrackerOptions:
             the shape fit stretched the forearms to fill the hull's hands), saved with
             them, and the silhouettes are guided by it. 1 (default) fits the whole
             hands. With exact masks 0.6 made every development run as good or better
-            (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms raised, 26 → 14 mm low); from
-            colour frames it gained nothing, and at 0.7 one run was lost from its 75th
-            frame on (docs/accuracy.md, "Hands as the hull sees them").
+            (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms raised, 14 mm
+            low instead of 26); from colour frames it gained nothing, and at 0.7 one run
+            was lost from its 75th frame on (docs/accuracy.md, "Hands as the hull sees
+            them").
         read_ahead: frames decoded and put through the background test on a second
             thread while the engine fits the frame before (:mod:`hullcap._threads`); 0
             reads each frame when it is tracked. The results are the same either way.
