@@ -18,7 +18,8 @@ def _track(args) -> int:
 
     options = TakeOptions(voxel=args.voxel, background=args.background, ignore_silhouettes=args.ignore_silhouettes,
                           volume=args.volume, frames=args.frames, refine_joints=args.refine_joints,
-                          overlays=not args.no_overlay, interpolate=args.interpolate, smooth=args.smooth)
+                          hand_reach=args.hand_reach, overlays=not args.no_overlay, interpolate=args.interpolate,
+                          smooth=args.smooth)
     track_take(args.sequence, args.out, options, model=args.model, resume=not args.restart, say=print,
                warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
     return 0
@@ -182,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--no-refine-joints", dest="refine_joints", action="store_false",
                    help="build the subject's model from the calibration pose only (default: refine its proportions "
                         "and joint centres from the first seconds of motion, then track from the start)")
+    t.add_argument("--hand-reach", type=float, default=1.0, metavar="F",
+                   help="fit each hand pulled toward its wrist to this fraction of its length (default 1: whole "
+                        "hands; 0.6 helps with exact silhouettes, see docs/accuracy.md)")
     _output_options(t)
     t.set_defaults(run=_track)
 

@@ -33,6 +33,8 @@ class TakeOptions:
         frames: track only the first this many frames (``None``: all).
         refine_joints: refine the subject's model from the first seconds of motion (a
             given model is used as it is).
+        hand_reach: the part of each hand the fits keep (``TrackerOptions.hand_reach``;
+            1 = whole hands, 0.6 helps with exact masks, docs/accuracy.md).
         overlays: write ``overlay/<cam>.mp4``.
         interpolate: fill failed frames between fitted ones in the outputs.
         smooth: also write trajectories low-passed at this cut-off (Hz).
@@ -44,6 +46,7 @@ class TakeOptions:
     volume: tuple[float, ...] | None = None
     frames: int | None = None
     refine_joints: bool = True
+    hand_reach: float = 1.0
     overlays: bool = True
     interpolate: bool = False
     smooth: float | None = None
@@ -84,10 +87,11 @@ def _checked(key: str, value, where: str):
                 or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)):
             raise bad("six numbers [x0, y0, z0, x1, y1, z1] in metres")
         return tuple(float(v) for v in value)
-    # voxel, smooth: positive numbers
     if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
         raise bad("a positive number")
-    return float(value)
+    if key == "hand_reach" and value > 1:
+        raise bad("a fraction in (0, 1]")
+    return float(value)  # voxel, smooth, hand_reach
 
 
 @dataclass(frozen=True)
@@ -134,7 +138,7 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     body = BodyModel.load(model) if model is not None else None
     tracker_options = TrackerOptions(voxel_size=options.voxel, background=options.background,
                                      use_silhouettes=not options.ignore_silhouettes,
-                                     refine_joints=options.refine_joints)
+                                     refine_joints=options.refine_joints, hand_reach=options.hand_reach)
     tracker = Tracker(seq, model=body, options=tracker_options, bounds=options.volume)
     say(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
         + (" (given)" if options.volume else " (every camera sees it; --volume to change)"))
