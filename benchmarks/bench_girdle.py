@@ -10,7 +10,9 @@ that the arm points the same way at the start). For each start: the clavicles'
 elevation after the fit, the shoulders' height error, and the fit's quality (what the
 tracker ranks fits by) and energy. Starts that end nearer the true shoulders with a lower
 quality say the model's own fit prefers the low shoulder; starts that end there with a
-higher one say tracking missed a better minimum.
+higher one say tracking missed a better minimum. The refits use the run's saved model,
+whole hands and all: for a run tracked with `--hand-reach` below 1 the shoulders' errors
+of the first line are that run's, the refits are not its fits.
 
     .venv/bin/python benchmarks/bench_girdle.py [--runs DIR] [--frames 6]
 
