@@ -1,11 +1,13 @@
 //! Data-parallel loops on `std::thread::scope`.
 //!
 //! Work is split into one contiguous chunk per thread; each thread gets a disjoint
-//! `&mut` slice of the output, so no locks and no unsafe code are needed. Threads are
-//! joined explicitly, and a panic in any of them is returned as [`WorkerPanicked`]
-//! instead of being re-raised.
+//! `&mut` slice of the output, so no locks are needed. Threads are joined explicitly, and
+//! a panic in any of them is returned as [`WorkerPanicked`] instead of being re-raised.
+//! Inside [`with_workers`](crate::with_workers) the chunks go to its team of threads
+//! instead of threads started for the call (`team.rs`).
 
 use std::num::NonZeroUsize;
+use std::sync::Mutex;
 use std::thread;
 
 /// A worker thread panicked; the message is the panic's payload when it was a string.
@@ -77,6 +79,20 @@ where
         return run_caught(|| f(0, out));
     }
     let chunk_len = n.div_ceil(chunks);
+    if let Some(team) = crate::team::available(chunks) {
+        // The same chunks, each handed to a member of the team by its index.
+        let slots: Vec<Mutex<Option<&mut [T]>>> = out
+            .chunks_mut(chunk_len)
+            .map(|c| Mutex::new(Some(c)))
+            .collect();
+        let job = |k: usize| {
+            let chunk = slots[k].lock().unwrap_or_else(|e| e.into_inner()).take();
+            if let Some(chunk) = chunk {
+                f(k * chunk_len, chunk);
+            }
+        };
+        return team.run(slots.len(), &job);
+    }
     thread::scope(|scope| {
         let f = &f;
         let (first, rest) = out.split_at_mut(chunk_len);

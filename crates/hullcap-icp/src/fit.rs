@@ -84,6 +84,22 @@ pub fn fit_with_prior(
     options: &FitOptions,
     prior: Option<&PosePrior>,
 ) -> Result<(Params, FitStats), IcpError> {
+    // Two hundred parallel calls a fit: one team of threads for all of them.
+    hullcap_core::with_workers(resolve_threads(options.threads), || {
+        fit_on_team(rig, target, model_points, initial, groups, options, prior)
+    })
+}
+
+/// [`fit_with_prior`] on the calling thread's team.
+fn fit_on_team(
+    rig: &Rig,
+    target: &Target,
+    model_points: &[u32],
+    initial: &Params,
+    groups: &[Vec<usize>],
+    options: &FitOptions,
+    prior: Option<&PosePrior>,
+) -> Result<(Params, FitStats), IcpError> {
     check(rig, model_points, initial, groups, options)?;
     if let Some(prior) = prior {
         prior.validate(rig.skeleton().n_dofs())?;
@@ -279,13 +295,27 @@ pub fn evaluate_poses(
     poses: &[Params],
     options: &FitOptions,
 ) -> Result<Vec<FitStats>, IcpError> {
+    let threads = resolve_threads(options.threads);
+    hullcap_core::with_workers(threads, || {
+        evaluate_on_team(rig, target, model_points, poses, options, threads)
+    })
+}
+
+/// [`evaluate_poses`] on the calling thread's team of `threads`.
+fn evaluate_on_team(
+    rig: &Rig,
+    target: &Target,
+    model_points: &[u32],
+    poses: &[Params],
+    options: &FitOptions,
+    threads: usize,
+) -> Result<Vec<FitStats>, IcpError> {
     options.validate()?;
     check_points(rig, model_points)?;
     for p in poses {
         p.root.validate()?;
         rig.skeleton().forward(&p.theta)?;
     }
-    let threads = resolve_threads(options.threads);
     if let Some(moving) = moving_vertices(rig, poses) {
         let problem = Problem {
             rig,

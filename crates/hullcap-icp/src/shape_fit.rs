@@ -53,6 +53,30 @@ pub fn fit_shape(
     prior: &ShapePrior,
     options: &FitOptions,
 ) -> Result<ShapeFit, IcpError> {
+    let threads = resolve_threads(options.threads);
+    hullcap_core::with_workers(threads, || {
+        fit_shape_on_team(
+            shape,
+            initial_shape,
+            frames,
+            model_points,
+            prior,
+            options,
+            threads,
+        )
+    })
+}
+
+/// [`fit_shape`] on the calling thread's team of `threads`.
+fn fit_shape_on_team(
+    shape: &Shape,
+    initial_shape: &[f64],
+    frames: &[(&Target, Params)],
+    model_points: &[u32],
+    prior: &ShapePrior,
+    options: &FitOptions,
+    threads: usize,
+) -> Result<ShapeFit, IcpError> {
     options.validate()?;
     let np = shape.n_params();
     let base = shape.base();
@@ -89,7 +113,6 @@ pub fn fit_shape(
         p.root.validate()?;
         base.skeleton().forward(&p.theta)?;
     }
-    let threads = resolve_threads(options.threads);
     let reverse = options.reverse_weight > 0.0;
     let n_pose = 6 + base.skeleton().n_dofs();
     let all_pose: Vec<usize> = (0..n_pose).collect();

@@ -1,0 +1,313 @@
+//! A team of worker threads kept for a stretch of work that makes many parallel calls.
+//!
+//! [`for_each_chunk_mut`](crate::for_each_chunk_mut) starts its threads on
+//! `std::thread::scope` and joins them on every call. A fit makes about nine such calls
+//! per iteration and two hundred per frame, and on a 2-core machine starting and joining
+//! a thread costs about 40 µs (docs/performance.md): a sixth of a fit. [`with_workers`]
+//! starts the threads once, on one `std::thread::scope` around the whole stretch, and
+//! every `for_each_chunk_mut` made on the calling thread inside it hands its chunks to
+//! them instead: the same chunks, so the same results to the bit.
+//!
+//! Handing a chunk to a thread that outlives the call means passing it a borrow that the
+//! type system cannot see ending before the thread does. That is the one place of the
+//! engine that needs `unsafe` (see [`Team::run`] for why it is sound): the caller waits
+//! for every worker to finish the job, panics included, before the borrow ends.
+
+use crate::parallel::WorkerPanicked;
+use std::cell::RefCell;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::thread::{self, Thread};
+
+/// Spins before a waiting thread parks: a job usually follows the last one within
+/// microseconds (the fit's serial steps between its parallel calls are short), and a
+/// parked thread takes about 11 µs to wake on a 2-core machine against well under one
+/// when it is still spinning. Short enough that a thread waiting for a longer pause
+/// (a Python stage between fits) soon gives its core back.
+const SPINS: usize = 2000;
+
+thread_local! {
+    /// The team of [`with_workers`] running on this thread, if any.
+    static CURRENT: RefCell<Option<Arc<Team>>> = const { RefCell::new(None) };
+}
+
+/// Runs `body` with a team of `threads − 1` worker threads (the calling thread is the
+/// last member), to which every [`for_each_chunk_mut`](crate::for_each_chunk_mut) call
+/// of `body` on this thread hands its chunks instead of starting threads of its own.
+/// With `threads` ≤ 1, or inside another `with_workers` on the same thread, `body` simply
+/// runs.
+pub fn with_workers<R>(threads: usize, body: impl FnOnce() -> R) -> R {
+    if threads <= 1 || CURRENT.with(|c| c.borrow().is_some()) {
+        return body();
+    }
+    let team = Arc::new(Team::new(threads - 1));
+    thread::scope(|scope| {
+        let handles: Vec<_> = (0..team.workers)
+            .map(|w| {
+                let team = Arc::clone(&team);
+                scope.spawn(move || team.work(w))
+            })
+            .collect();
+        // The threads are known before the first job is published.
+        let _ = team
+            .threads
+            .set(handles.iter().map(|h| h.thread().clone()).collect());
+        // Installed for `body`, and on the way out (a panic included) uninstalled and the
+        // workers told to stop, so that the scope can join them.
+        let _installed = Installed::new(Arc::clone(&team));
+        body()
+    })
+}
+
+/// The team running on this thread when it can take a call of `chunks` chunks: it has
+/// enough members and is not already running a job (a chunk that itself makes a parallel
+/// call starts threads of its own).
+pub(crate) fn available(chunks: usize) -> Option<Arc<Team>> {
+    CURRENT.with(|c| {
+        c.borrow()
+            .as_ref()
+            .filter(|team| team.workers + 1 >= chunks && !team.busy.load(Ordering::Relaxed))
+            .cloned()
+    })
+}
+
+/// What [`with_workers`] keeps installed while its body runs.
+struct Installed(Arc<Team>);
+
+impl Installed {
+    fn new(team: Arc<Team>) -> Self {
+        CURRENT.with(|c| *c.borrow_mut() = Some(Arc::clone(&team)));
+        Installed(team)
+    }
+}
+
+impl Drop for Installed {
+    fn drop(&mut self) {
+        CURRENT.with(|c| *c.borrow_mut() = None);
+        self.0.stop.store(true, Ordering::Release);
+        for t in self.0.threads.get().into_iter().flatten() {
+            t.unpark();
+        }
+    }
+}
+
+/// A job: chunk `k` of `chunks` is `run(k)`; chunk 0 is the caller's.
+#[derive(Clone, Copy)]
+struct Job {
+    run: &'static (dyn Fn(usize) + Sync),
+    chunks: usize,
+}
+
+/// The state the members of a team share.
+pub(crate) struct Team {
+    workers: usize,
+    threads: OnceLock<Vec<Thread>>,
+    /// The thread that publishes jobs (the one that called [`with_workers`]).
+    caller: Thread,
+    /// Bumped for every job; a worker runs a job when it sees a generation it has not.
+    generation: AtomicUsize,
+    job: Mutex<Option<Job>>,
+    /// Workers that have not yet finished the current job.
+    remaining: AtomicUsize,
+    /// The first panic of a worker in the current job.
+    panicked: Mutex<Option<WorkerPanicked>>,
+    busy: AtomicBool,
+    stop: AtomicBool,
+}
+
+impl Team {
+    fn new(workers: usize) -> Self {
+        Team {
+            workers,
+            threads: OnceLock::new(),
+            caller: thread::current(),
+            generation: AtomicUsize::new(0),
+            job: Mutex::new(None),
+            remaining: AtomicUsize::new(0),
+            panicked: Mutex::new(None),
+            busy: AtomicBool::new(false),
+            stop: AtomicBool::new(false),
+        }
+    }
+
+    /// Runs `f(k)` for every chunk `k` < `chunks` (at most one more than the workers):
+    /// chunk 0 on the calling thread, chunk `k` on worker `k − 1`; returns once all of them
+    /// have finished, with the first panic among them.
+    pub(crate) fn run(
+        &self,
+        chunks: usize,
+        f: &(dyn Fn(usize) + Sync),
+    ) -> Result<(), WorkerPanicked> {
+        debug_assert!(chunks <= self.workers + 1);
+        self.busy.store(true, Ordering::Relaxed);
+        // SAFETY: the workers see `f` only through `self.job`, between the generation
+        // bump below and their decrement of `remaining`, and this function does not return
+        // (nor unwind: the caller's own chunk runs under `catch_unwind`, and waiting cannot
+        // panic) before `remaining` is back to 0 and `self.job` is cleared. So no worker
+        // uses `f` after the borrow it came from ends; the `'static` only hides that from
+        // the type of `Job`.
+        #[allow(unsafe_code)]
+        let run: &'static (dyn Fn(usize) + Sync) = unsafe { std::mem::transmute(f) };
+        *lock(&self.job) = Some(Job { run, chunks });
+        self.remaining.store(self.workers, Ordering::Release);
+        self.generation.fetch_add(1, Ordering::AcqRel);
+        for t in self.threads.get().into_iter().flatten() {
+            t.unpark();
+        }
+        let mine = catch_unwind(AssertUnwindSafe(|| f(0)));
+        wait(|| self.remaining.load(Ordering::Acquire) == 0);
+        *lock(&self.job) = None;
+        let theirs = lock(&self.panicked).take();
+        self.busy.store(false, Ordering::Relaxed);
+        match mine {
+            Err(payload) => Err(WorkerPanicked::from_payload(payload.as_ref())),
+            Ok(()) => theirs.map_or(Ok(()), Err),
+        }
+    }
+
+    /// Worker `w`'s loop: run chunk `w + 1` of each job published, until told to stop.
+    fn work(&self, w: usize) {
+        let mut seen = 0;
+        loop {
+            wait(|| {
+                self.stop.load(Ordering::Acquire) || self.generation.load(Ordering::Acquire) != seen
+            });
+            if self.stop.load(Ordering::Acquire) {
+                return;
+            }
+            seen = self.generation.load(Ordering::Acquire);
+            let job = *lock(&self.job);
+            if let Some(job) = job.filter(|job| w + 1 < job.chunks)
+                && let Err(payload) = catch_unwind(AssertUnwindSafe(|| (job.run)(w + 1)))
+            {
+                lock(&self.panicked).get_or_insert(WorkerPanicked::from_payload(payload.as_ref()));
+            }
+            if self.remaining.fetch_sub(1, Ordering::AcqRel) == 1 {
+                self.caller.unpark();
+            }
+        }
+    }
+}
+
+/// Waits until `done()`: spinning first, then parked (woken by an `unpark`, or every
+/// millisecond to look again).
+fn wait(done: impl Fn() -> bool) {
+    for _ in 0..SPINS {
+        if done() {
+            return;
+        }
+        std::hint::spin_loop();
+    }
+    while !done() {
+        thread::park_timeout(std::time::Duration::from_millis(1));
+    }
+}
+
+/// The mutex's value; a panic never happens while one of these is held, so a poisoned
+/// lock still holds a consistent value.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::for_each_chunk_mut;
+    use std::collections::HashSet;
+    use std::thread::ThreadId;
+
+    /// Each item's index times `k`, and the thread that wrote it, by `for_each_chunk_mut`.
+    fn fill(threads: usize, n: usize, k: usize) -> Result<Vec<(usize, ThreadId)>, WorkerPanicked> {
+        let mut out = vec![(0, thread::current().id()); n];
+        for_each_chunk_mut(&mut out, threads, 1, |offset, chunk| {
+            for (i, slot) in chunk.iter_mut().enumerate() {
+                *slot = ((offset + i) * k, thread::current().id());
+            }
+        })?;
+        Ok(out)
+    }
+
+    #[test]
+    fn a_team_gives_the_same_chunks_and_keeps_its_threads() {
+        let calls = 200;
+        let values = |runs: &[Vec<(usize, ThreadId)>]| -> Vec<Vec<usize>> {
+            runs.iter()
+                .map(|r| r.iter().map(|v| v.0).collect())
+                .collect()
+        };
+        let ids = |runs: &[Vec<(usize, ThreadId)>]| -> HashSet<ThreadId> {
+            runs.iter().flatten().map(|v| v.1).collect()
+        };
+        let alone: Vec<_> = (0..calls).map(|k| fill(3, 1000, k).unwrap()).collect();
+        let teamed = with_workers(3, || {
+            (0..calls)
+                .map(|k| fill(3, 1000, k).unwrap())
+                .collect::<Vec<_>>()
+        });
+        assert_eq!(values(&alone), values(&teamed));
+        // Threads started for each call: the caller and two new ones per call.
+        assert_eq!(ids(&alone).len(), 1 + 2 * calls);
+        // The team's: the caller and its two workers, whatever the number of calls.
+        assert_eq!(ids(&teamed).len(), 3);
+        assert!(ids(&teamed).contains(&thread::current().id()));
+    }
+
+    #[test]
+    fn a_panic_in_any_chunk_is_returned_and_the_team_goes_on() {
+        with_workers(2, || {
+            for bad in [0, 999] {
+                let mut out = vec![0usize; 1000];
+                let err = for_each_chunk_mut(&mut out, 2, 1, |offset, chunk| {
+                    for (i, v) in chunk.iter_mut().enumerate() {
+                        assert!(offset + i != bad, "item {bad} is bad");
+                        *v = offset + i;
+                    }
+                })
+                .unwrap_err();
+                assert!(err.0.contains(&format!("item {bad} is bad")), "{err}");
+            }
+            // The team still works after both.
+            let out = fill(2, 10, 1).unwrap();
+            assert_eq!(
+                out.iter().map(|v| v.0).collect::<Vec<_>>(),
+                (0..10).collect::<Vec<_>>()
+            );
+        });
+    }
+
+    #[test]
+    fn calls_within_calls_and_teams_within_teams_just_run() {
+        let total = with_workers(2, || {
+            with_workers(2, || {
+                let mut sums = vec![0usize; 4];
+                for_each_chunk_mut(&mut sums, 2, 1, |offset, chunk| {
+                    for (i, s) in chunk.iter_mut().enumerate() {
+                        // A chunk's own parallel call, while the team is busy with this one.
+                        *s = fill(2, 100, offset + i).unwrap().iter().map(|v| v.0).sum();
+                    }
+                })
+                .unwrap();
+                sums.iter().sum::<usize>()
+            })
+        });
+        assert_eq!(total, (0..4).map(|k| k * 4950).sum::<usize>());
+    }
+
+    #[test]
+    fn a_panic_of_the_body_stops_the_team_and_goes_on_up() {
+        let caught = std::panic::catch_unwind(|| {
+            with_workers(2, || {
+                fill(2, 100, 1).unwrap();
+                panic!("the body gave up");
+            })
+        });
+        assert!(caught.is_err());
+        // No team is left installed on this thread: a call starts its own threads again.
+        let ids: HashSet<_> = (0..3)
+            .flat_map(|k| fill(2, 100, k).unwrap())
+            .map(|v| v.1)
+            .collect();
+        assert_eq!(ids.len(), 1 + 3);
+    }
+}
