@@ -84,111 +84,99 @@ pub fn fit_with_prior(
     options: &FitOptions,
     prior: Option<&PosePrior>,
 ) -> Result<(Params, FitStats), IcpError> {
-    // Two hundred parallel calls a fit: one team of threads for all of them.
-    hullcap_core::with_workers(resolve_threads(options.threads), || {
-        fit_on_team(rig, target, model_points, initial, groups, options, prior)
+    // Two hundred parallel loops a fit: one team of threads for all of them.
+    let threads = resolve_threads(options.threads);
+    hullcap_core::with_workers(threads, || {
+        check(rig, model_points, initial, groups, options)?;
+        if let Some(prior) = prior {
+            prior.validate(rig.skeleton().n_dofs())?;
+        }
+        let n_dofs = rig.skeleton().n_dofs();
+        let stages: Vec<Vec<usize>> = if options.hierarchical {
+            std::iter::once((0..6).collect())
+                .chain(groups.iter().map(|g| g.iter().map(|d| 6 + d).collect()))
+                .collect()
+        } else {
+            vec![(0..6 + n_dofs).collect()]
+        };
+        let mut params = initial.clone();
+        rig.skeleton().clamp(&mut params.theta);
+        let problem = Problem {
+            rig,
+            target,
+            kind: options.residual,
+            threads,
+        };
+        let fitter = |model_points, options| Fitter {
+            problem,
+            model_points,
+            options,
+            prior,
+            iterations: 0,
+            kept: None,
+        };
+        let coarse = options.hierarchical && options.coarse > 1;
+        let (coarse_points, coarse_options): (Vec<u32>, FitOptions);
+        let mut staged = if coarse {
+            coarse_points = model_points
+                .iter()
+                .step_by(options.coarse)
+                .copied()
+                .collect();
+            coarse_options = options.coarsened();
+            fitter(&coarse_points, &coarse_options)
+        } else {
+            fitter(model_points, options)
+        };
+        let mut previous = f64::INFINITY;
+        let mut last = None;
+        let mut rounds = 0;
+        let max_rounds = if options.hierarchical {
+            options.rounds.max(1)
+        } else {
+            1
+        };
+        while rounds < max_rounds {
+            rounds += 1;
+            for stage in &stages {
+                staged.stage(&mut params, stage)?;
+            }
+            if coarse && rounds == max_rounds {
+                break; // no round follows, and the polish and statistics use every point
+            }
+            let stats = staged.evaluate(&params)?;
+            let settled =
+                (previous - stats.energy).abs() <= options.tolerance * stats.energy.max(1e-12);
+            previous = stats.energy;
+            last = Some(stats);
+            if settled {
+                break;
+            }
+        }
+        let (mut fine, coarse_iterations) = if coarse {
+            last = None; // the statistics are those of every point
+            (fitter(model_points, options), staged.iterations)
+        } else {
+            (staged, 0)
+        };
+        if options.hierarchical && options.polish {
+            let all: Vec<usize> = (0..6 + n_dofs).collect();
+            fine.stage(&mut params, &all)?;
+            last = None; // the pose moved: evaluate it afresh
+        }
+        let stats = match last {
+            Some(stats) => stats,
+            None => fine.evaluate(&params)?,
+        };
+        Ok((
+            params,
+            FitStats {
+                iterations: coarse_iterations + fine.iterations,
+                rounds,
+                ..stats
+            },
+        ))
     })
-}
-
-/// [`fit_with_prior`] on the calling thread's team.
-fn fit_on_team(
-    rig: &Rig,
-    target: &Target,
-    model_points: &[u32],
-    initial: &Params,
-    groups: &[Vec<usize>],
-    options: &FitOptions,
-    prior: Option<&PosePrior>,
-) -> Result<(Params, FitStats), IcpError> {
-    check(rig, model_points, initial, groups, options)?;
-    if let Some(prior) = prior {
-        prior.validate(rig.skeleton().n_dofs())?;
-    }
-    let n_dofs = rig.skeleton().n_dofs();
-    let stages: Vec<Vec<usize>> = if options.hierarchical {
-        std::iter::once((0..6).collect())
-            .chain(groups.iter().map(|g| g.iter().map(|d| 6 + d).collect()))
-            .collect()
-    } else {
-        vec![(0..6 + n_dofs).collect()]
-    };
-    let mut params = initial.clone();
-    rig.skeleton().clamp(&mut params.theta);
-    let problem = Problem {
-        rig,
-        target,
-        kind: options.residual,
-        threads: resolve_threads(options.threads),
-    };
-    let fitter = |model_points, options| Fitter {
-        problem,
-        model_points,
-        options,
-        prior,
-        iterations: 0,
-        kept: None,
-    };
-    let coarse = options.hierarchical && options.coarse > 1;
-    let (coarse_points, coarse_options): (Vec<u32>, FitOptions);
-    let mut staged = if coarse {
-        coarse_points = model_points
-            .iter()
-            .step_by(options.coarse)
-            .copied()
-            .collect();
-        coarse_options = options.coarsened();
-        fitter(&coarse_points, &coarse_options)
-    } else {
-        fitter(model_points, options)
-    };
-    let mut previous = f64::INFINITY;
-    let mut last = None;
-    let mut rounds = 0;
-    let max_rounds = if options.hierarchical {
-        options.rounds.max(1)
-    } else {
-        1
-    };
-    while rounds < max_rounds {
-        rounds += 1;
-        for stage in &stages {
-            staged.stage(&mut params, stage)?;
-        }
-        if coarse && rounds == max_rounds {
-            break; // no round follows, and the polish and statistics use every point
-        }
-        let stats = staged.evaluate(&params)?;
-        let settled =
-            (previous - stats.energy).abs() <= options.tolerance * stats.energy.max(1e-12);
-        previous = stats.energy;
-        last = Some(stats);
-        if settled {
-            break;
-        }
-    }
-    let (mut fine, coarse_iterations) = if coarse {
-        last = None; // the statistics are those of every point
-        (fitter(model_points, options), staged.iterations)
-    } else {
-        (staged, 0)
-    };
-    if options.hierarchical && options.polish {
-        let all: Vec<usize> = (0..6 + n_dofs).collect();
-        fine.stage(&mut params, &all)?;
-        last = None; // the pose moved: evaluate it afresh
-    }
-    let stats = match last {
-        Some(stats) => stats,
-        None => fine.evaluate(&params)?,
-    };
-    Ok((
-        params,
-        FitStats {
-            iterations: coarse_iterations + fine.iterations,
-            rounds,
-            ..stats
-        },
-    ))
 }
 
 fn check(
@@ -297,36 +285,24 @@ pub fn evaluate_poses(
 ) -> Result<Vec<FitStats>, IcpError> {
     let threads = resolve_threads(options.threads);
     hullcap_core::with_workers(threads, || {
-        evaluate_on_team(rig, target, model_points, poses, options, threads)
-    })
-}
-
-/// [`evaluate_poses`] on the calling thread's team of `threads`.
-fn evaluate_on_team(
-    rig: &Rig,
-    target: &Target,
-    model_points: &[u32],
-    poses: &[Params],
-    options: &FitOptions,
-    threads: usize,
-) -> Result<Vec<FitStats>, IcpError> {
-    options.validate()?;
-    check_points(rig, model_points)?;
-    for p in poses {
-        p.root.validate()?;
-        rig.skeleton().forward(&p.theta)?;
-    }
-    if let Some(moving) = moving_vertices(rig, poses) {
-        let problem = Problem {
-            rig,
-            target,
-            kind: options.residual,
-            threads,
-        };
-        return evaluate_variants(&problem, model_points, poses, &moving, options);
-    }
-    per_pose(poses, threads, |params| {
-        evaluate(rig, target, model_points, params, options, 1)
+        options.validate()?;
+        check_points(rig, model_points)?;
+        for p in poses {
+            p.root.validate()?;
+            rig.skeleton().forward(&p.theta)?;
+        }
+        if let Some(moving) = moving_vertices(rig, poses) {
+            let problem = Problem {
+                rig,
+                target,
+                kind: options.residual,
+                threads,
+            };
+            return evaluate_variants(&problem, model_points, poses, &moving, options);
+        }
+        per_pose(poses, threads, |params| {
+            evaluate(rig, target, model_points, params, options, 1)
+        })
     })
 }
 

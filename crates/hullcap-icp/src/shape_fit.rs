@@ -55,189 +55,169 @@ pub fn fit_shape(
 ) -> Result<ShapeFit, IcpError> {
     let threads = resolve_threads(options.threads);
     hullcap_core::with_workers(threads, || {
-        fit_shape_on_team(
-            shape,
-            initial_shape,
-            frames,
-            model_points,
-            prior,
-            options,
-            threads,
-        )
-    })
-}
-
-/// [`fit_shape`] on the calling thread's team of `threads`.
-fn fit_shape_on_team(
-    shape: &Shape,
-    initial_shape: &[f64],
-    frames: &[(&Target, Params)],
-    model_points: &[u32],
-    prior: &ShapePrior,
-    options: &FitOptions,
-    threads: usize,
-) -> Result<ShapeFit, IcpError> {
-    options.validate()?;
-    let np = shape.n_params();
-    let base = shape.base();
-    if frames.is_empty() {
-        return Err(IcpError::BadParameter {
-            name: "frames",
-            requirement: "at least one",
-            value: 0.0,
-        });
-    }
-    if prior.sigma.len() != np || initial_shape.len() != np {
-        return Err(IcpError::BadParameter {
-            name: "shape prior and initial shape lengths",
-            requirement: "one per shape parameter",
-            value: prior.sigma.len().min(initial_shape.len()) as f64,
-        });
-    }
-    if let Some(&bad) = prior.sigma.iter().find(|&&t| !(t > 0.0 && t.is_finite())) {
-        return Err(IcpError::BadParameter {
-            name: "shape prior sigma",
-            requirement: "positive and finite",
-            value: bad,
-        });
-    }
-    if !(prior.prior_distance >= 0.0 && prior.prior_distance.is_finite()) {
-        return Err(IcpError::BadParameter {
-            name: "prior_distance",
-            requirement: "non-negative and finite",
-            value: prior.prior_distance,
-        });
-    }
-    crate::fit::check_points(base, model_points)?;
-    for (_, p) in frames {
-        p.root.validate()?;
-        base.skeleton().forward(&p.theta)?;
-    }
-    let reverse = options.reverse_weight > 0.0;
-    let n_pose = 6 + base.skeleton().n_dofs();
-    let all_pose: Vec<usize> = (0..n_pose).collect();
-    let n = np + frames.len() * n_pose;
-    let mut s = initial_shape.to_vec();
-    let mut poses: Vec<Params> = frames.iter().map(|(_, p)| p.clone()).collect();
-    for p in &mut poses {
-        base.skeleton().clamp(&mut p.theta);
-    }
-    let prior_energy = |s: &[f64], kappa: f64| {
-        0.5 * kappa
-            * s.iter()
-                .zip(&prior.sigma)
-                .map(|(x, t)| (x / t) * (x / t))
-                .sum::<f64>()
-    };
-    let mut damping = 1e-3;
-    let mut iterations = 0;
-    for _ in 0..options.iterations {
-        iterations += 1;
-        let rig = shape.rig(&s)?;
-        let mut h = DMatrix::zeros(n, n);
-        let mut g = DVector::zeros(n);
-        let mut e0 = 0.0;
-        let mut linearised = Vec::with_capacity(frames.len());
-        let mut n_pairs = 0usize;
-        for (f, ((target, _), params)) in frames.iter().zip(&poses).enumerate() {
-            let problem = Problem {
-                rig: &rig,
-                target,
-                kind: options.residual,
-                threads,
-            };
-            let pose = rig.skeleton().forward(&params.theta)?;
-            let found = problem.correspond(&pose, &params.root, model_points, options, reverse)?;
-            let sigma = robust_sigma(&found.forward, options.sigma_min);
-            let d_pose = shape.pose_derivatives(&pose);
-            let columns = ShapeColumns {
-                shape,
-                d_pose: &d_pose,
-            };
-            let sums = problem.normal_equations(
-                &pose,
-                &params.root,
-                &found.pairs,
-                sigma,
-                &all_pose,
-                Some(&columns),
-            )?;
-            // Local layout: [pose (n_pose) | shape (np)]; global: [shape | frame 0 | …].
-            let global = |a: usize| {
-                if a < n_pose {
-                    np + f * n_pose + a
-                } else {
-                    a - n_pose
-                }
-            };
-            let m = n_pose + np;
-            for a in 0..m {
-                g[global(a)] += sums.gradient[a];
-                for b in 0..m {
-                    h[(global(a), global(b))] += sums.hessian[a * m + b];
-                }
-            }
-            e0 += sums.energy;
-            n_pairs += found.pairs.len();
-            linearised.push((found.pairs, sigma));
+        options.validate()?;
+        let np = shape.n_params();
+        let base = shape.base();
+        if frames.is_empty() {
+            return Err(IcpError::BadParameter {
+                name: "frames",
+                requirement: "at least one",
+                value: 0.0,
+            });
         }
-        let kappa = n_pairs as f64 * prior.prior_distance * prior.prior_distance;
-        for p in 0..np {
-            let curvature = kappa / (prior.sigma[p] * prior.sigma[p]);
-            g[p] += curvature * s[p];
-            h[(p, p)] += curvature;
+        if prior.sigma.len() != np || initial_shape.len() != np {
+            return Err(IcpError::BadParameter {
+                name: "shape prior and initial shape lengths",
+                requirement: "one per shape parameter",
+                value: prior.sigma.len().min(initial_shape.len()) as f64,
+            });
         }
-        e0 += prior_energy(&s, kappa);
-        let accepted = levenberg_marquardt(&h, &g, e0, &mut damping, |delta| {
-            let s1: Vec<f64> = s.iter().zip(delta.iter()).map(|(a, d)| a + d).collect();
-            let rig1 = shape.rig(&s1)?;
-            let mut e1 = prior_energy(&s1, kappa);
-            let mut poses1 = Vec::with_capacity(poses.len());
-            for (f, (((target, _), params), (pairs, sigma))) in
-                frames.iter().zip(&poses).zip(&linearised).enumerate()
-            {
-                let at = np + f * n_pose;
-                let p1 = params.stepped(
-                    rig1.skeleton(),
-                    &all_pose,
-                    &delta.as_slice()[at..at + n_pose],
-                );
+        if let Some(&bad) = prior.sigma.iter().find(|&&t| !(t > 0.0 && t.is_finite())) {
+            return Err(IcpError::BadParameter {
+                name: "shape prior sigma",
+                requirement: "positive and finite",
+                value: bad,
+            });
+        }
+        if !(prior.prior_distance >= 0.0 && prior.prior_distance.is_finite()) {
+            return Err(IcpError::BadParameter {
+                name: "prior_distance",
+                requirement: "non-negative and finite",
+                value: prior.prior_distance,
+            });
+        }
+        crate::fit::check_points(base, model_points)?;
+        for (_, p) in frames {
+            p.root.validate()?;
+            base.skeleton().forward(&p.theta)?;
+        }
+        let reverse = options.reverse_weight > 0.0;
+        let n_pose = 6 + base.skeleton().n_dofs();
+        let all_pose: Vec<usize> = (0..n_pose).collect();
+        let n = np + frames.len() * n_pose;
+        let mut s = initial_shape.to_vec();
+        let mut poses: Vec<Params> = frames.iter().map(|(_, p)| p.clone()).collect();
+        for p in &mut poses {
+            base.skeleton().clamp(&mut p.theta);
+        }
+        let prior_energy = |s: &[f64], kappa: f64| {
+            0.5 * kappa
+                * s.iter()
+                    .zip(&prior.sigma)
+                    .map(|(x, t)| (x / t) * (x / t))
+                    .sum::<f64>()
+        };
+        let mut damping = 1e-3;
+        let mut iterations = 0;
+        for _ in 0..options.iterations {
+            iterations += 1;
+            let rig = shape.rig(&s)?;
+            let mut h = DMatrix::zeros(n, n);
+            let mut g = DVector::zeros(n);
+            let mut e0 = 0.0;
+            let mut linearised = Vec::with_capacity(frames.len());
+            let mut n_pairs = 0usize;
+            for (f, ((target, _), params)) in frames.iter().zip(&poses).enumerate() {
                 let problem = Problem {
-                    rig: &rig1,
+                    rig: &rig,
                     target,
                     kind: options.residual,
                     threads,
                 };
-                let pose = rig1.skeleton().forward(&p1.theta)?;
-                e1 += problem.energy(&pose, &p1.root, pairs, *sigma)?;
-                poses1.push(p1);
-            }
-            Ok(((s1, poses1), e1))
-        })?;
-        match accepted {
-            Some(((s1, poses1), e1)) => {
-                s = s1;
-                poses = poses1;
-                if e0 - e1 <= options.tolerance * e0 {
-                    break;
+                let pose = rig.skeleton().forward(&params.theta)?;
+                let found =
+                    problem.correspond(&pose, &params.root, model_points, options, reverse)?;
+                let sigma = robust_sigma(&found.forward, options.sigma_min);
+                let d_pose = shape.pose_derivatives(&pose);
+                let columns = ShapeColumns {
+                    shape,
+                    d_pose: &d_pose,
+                };
+                let sums = problem.normal_equations(
+                    &pose,
+                    &params.root,
+                    &found.pairs,
+                    sigma,
+                    &all_pose,
+                    Some(&columns),
+                )?;
+                // Local layout: [pose (n_pose) | shape (np)]; global: [shape | frame 0 | …].
+                let global = |a: usize| {
+                    if a < n_pose {
+                        np + f * n_pose + a
+                    } else {
+                        a - n_pose
+                    }
+                };
+                let m = n_pose + np;
+                for a in 0..m {
+                    g[global(a)] += sums.gradient[a];
+                    for b in 0..m {
+                        h[(global(a), global(b))] += sums.hessian[a * m + b];
+                    }
                 }
+                e0 += sums.energy;
+                n_pairs += found.pairs.len();
+                linearised.push((found.pairs, sigma));
             }
-            None => break,
+            let kappa = n_pairs as f64 * prior.prior_distance * prior.prior_distance;
+            for p in 0..np {
+                let curvature = kappa / (prior.sigma[p] * prior.sigma[p]);
+                g[p] += curvature * s[p];
+                h[(p, p)] += curvature;
+            }
+            e0 += prior_energy(&s, kappa);
+            let accepted = levenberg_marquardt(&h, &g, e0, &mut damping, |delta| {
+                let s1: Vec<f64> = s.iter().zip(delta.iter()).map(|(a, d)| a + d).collect();
+                let rig1 = shape.rig(&s1)?;
+                let mut e1 = prior_energy(&s1, kappa);
+                let mut poses1 = Vec::with_capacity(poses.len());
+                for (f, (((target, _), params), (pairs, sigma))) in
+                    frames.iter().zip(&poses).zip(&linearised).enumerate()
+                {
+                    let at = np + f * n_pose;
+                    let p1 = params.stepped(
+                        rig1.skeleton(),
+                        &all_pose,
+                        &delta.as_slice()[at..at + n_pose],
+                    );
+                    let problem = Problem {
+                        rig: &rig1,
+                        target,
+                        kind: options.residual,
+                        threads,
+                    };
+                    let pose = rig1.skeleton().forward(&p1.theta)?;
+                    e1 += problem.energy(&pose, &p1.root, pairs, *sigma)?;
+                    poses1.push(p1);
+                }
+                Ok(((s1, poses1), e1))
+            })?;
+            match accepted {
+                Some(((s1, poses1), e1)) => {
+                    s = s1;
+                    poses = poses1;
+                    if e0 - e1 <= options.tolerance * e0 {
+                        break;
+                    }
+                }
+                None => break,
+            }
         }
-    }
-    let rig = shape.rig(&s)?;
-    let stats = frames
-        .iter()
-        .zip(&poses)
-        .map(|((target, _), params)| {
-            crate::fit::evaluate(&rig, target, model_points, params, options, threads)
+        let rig = shape.rig(&s)?;
+        let stats = frames
+            .iter()
+            .zip(&poses)
+            .map(|((target, _), params)| {
+                crate::fit::evaluate(&rig, target, model_points, params, options, threads)
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(ShapeFit {
+            shape: s,
+            poses,
+            stats,
+            iterations,
         })
-        .collect::<Result<_, _>>()?;
-    Ok(ShapeFit {
-        shape: s,
-        poses,
-        stats,
-        iterations,
     })
 }
 
