@@ -153,6 +153,15 @@ def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(sh
     assert whole.model is model and whole.guide is model
 
 
+def test_the_hands_are_short_by_default_only_with_the_sequences_own_silhouettes(short_sequence):
+    seq, model = Sequence(short_sequence), BodyModel.template()
+    assert seq.has_silhouettes
+    given = Tracker(seq)._tracking_state(model)
+    assert np.array_equal(given.model.vertices, with_hands(model, 0.6).vertices)
+    subtracted = Tracker(seq, options=TrackerOptions(use_silhouettes=False))._tracking_state(model)
+    assert subtracted.model is model
+
+
 def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, tmp_path):
     seq_dir = tmp_path / "seq"
     shutil.copytree(short_sequence, seq_dir)

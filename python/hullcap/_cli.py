@@ -183,9 +183,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--no-refine-joints", dest="refine_joints", action="store_false",
                    help="build the subject's model from the calibration pose only (default: refine its proportions "
                         "and joint centres from the first seconds of motion, then track from the start)")
-    t.add_argument("--hand-reach", type=float, default=1.0, metavar="F",
-                   help="fit each hand pulled toward its wrist to this fraction of its length (default 1: whole "
-                        "hands; 0.6 helps with exact silhouettes, see docs/accuracy.md)")
+    t.add_argument("--hand-reach", type=float, metavar="F",
+                   help="fit each hand pulled toward its wrist to this fraction of its length (1: whole hands; "
+                        "default 0.6 with the sequence's own silhouettes, 1 with background subtraction, see "
+                        "docs/accuracy.md)")
     _output_options(t)
     t.set_defaults(run=_track)
 

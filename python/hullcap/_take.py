@@ -34,7 +34,7 @@ class TakeOptions:
         refine_joints: refine the subject's model from the first seconds of motion (a
             given model is used as it is).
         hand_reach: the part of each hand the fits keep (``TrackerOptions.hand_reach``;
-            1 = whole hands, 0.6 helps with exact masks, docs/accuracy.md).
+            1 = whole hands; ``None``: 0.6 with the take's own silhouettes, 1 otherwise).
         overlays: write ``overlay/<cam>.mp4``.
         interpolate: fill failed frames between fitted ones in the outputs.
         smooth: also write trajectories low-passed at this cut-off (Hz).
@@ -46,7 +46,7 @@ class TakeOptions:
     volume: tuple[float, ...] | None = None
     frames: int | None = None
     refine_joints: bool = True
-    hand_reach: float = 1.0
+    hand_reach: float | None = None
     overlays: bool = True
     interpolate: bool = False
     smooth: float | None = None

@@ -213,12 +213,13 @@ class TrackerOptions:
             may slide the whole arm along its line to match them. The subject's model
             itself keeps its whole hands: it is built with them (built with short ones,
             the shape fit stretched the forearms to fill the hull's hands), saved with
-            them, and the silhouettes are guided by it. 1 (default) fits the whole
-            hands. With exact masks 0.6 made every development run as good or better
-            (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms raised, 14 mm
-            low instead of 26); from colour frames it gained nothing, and at 0.7 one run
-            was lost from its 75th frame on (docs/accuracy.md, "Hands as the hull sees
-            them").
+            them, and the silhouettes are guided by it. ``None`` (default): 0.6 with the
+            sequence's own silhouettes, 1 (the whole hands) with silhouettes by
+            background subtraction. With exact masks 0.6 made every development run as
+            good or better (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms
+            raised, 14 mm low instead of 26); from colour frames it gained nothing, and at
+            0.7 one run was lost from its 75th frame on (docs/accuracy.md, "Hands as the
+            hull sees them").
         read_ahead: frames decoded and put through the background test on a second
             thread while the engine fits the frame before (:mod:`hullcap._threads`); 0
             reads each frame when it is tracked. The results are the same either way.
@@ -249,7 +250,7 @@ class TrackerOptions:
     search: SearchOptions = field(default_factory=SearchOptions)
     motion_sigma: float | None = None
     motion_prior_distance: float = 0.003
-    hand_reach: float = 1.0
+    hand_reach: float | None = None
     read_ahead: int = 2
     seed: int = 0
 
@@ -261,7 +262,7 @@ class TrackerOptions:
         if self.motion_sigma is not None and not (self.motion_sigma > 0 and self.motion_prior_distance >= 0):
             raise OptionsError(f"motion_sigma must be positive (or None) and motion_prior_distance >= 0, got "
                                f"{self.motion_sigma} and {self.motion_prior_distance}")
-        if not 0 < self.hand_reach <= 1:
+        if self.hand_reach is not None and not 0 < self.hand_reach <= 1:
             raise OptionsError(f"hand_reach must be in (0, 1], got {self.hand_reach}")
         if self.read_ahead < 0:
             raise OptionsError(f"read_ahead must be >= 0, got {self.read_ahead}")
@@ -371,6 +372,11 @@ class Tracker:
     def _hull_tolerance(self) -> int:
         tolerance = self.options.hull_tolerance
         return tolerance if tolerance is not None else (0 if self._given_silhouettes else 1)
+
+    @property
+    def _hand_reach(self) -> float:
+        reach = self.options.hand_reach
+        return reach if reach is not None else (0.6 if self._given_silhouettes else 1.0)
 
     def _segmenters(self):
         """The background models; the guided segmenters built on them, or None."""
@@ -601,7 +607,7 @@ class Tracker:
         """The state of tracking a sequence with `model`: its fits take the model with the
         hands of ``options.hand_reach``, the silhouettes are guided by `model` itself. The
         anchor (the fit at frame `first`) is fitted again with those hands."""
-        fitted = with_hands(model, self.options.hand_reach)
+        fitted = with_hands(model, self._hand_reach)
         if anchor is not None and fitted is not model:
             target = make_target(self.hull(first, (model, anchor.pose)))
             anchor = fit(fitted, target, anchor.pose, self.options.subject.fit)
