@@ -10,13 +10,14 @@ that the arm points the same way at the start). For each start: the clavicles'
 elevation after the fit, the shoulders' height error, and the fit's quality (what the
 tracker ranks fits by) and energy. Starts that end nearer the true shoulders with a lower
 quality say the model's own fit prefers the low shoulder; starts that end there with a
-higher one say tracking missed a better minimum. The refits use the run's saved model,
-whole hands and all: for a run tracked with `--hand-reach` below 1 the shoulders' errors
-of the first line are that run's, the refits are not its fits.
+higher one say tracking missed a better minimum. The refits take the run's saved model
+with the hands tracking fits (``TrackerOptions.hand_reach``: by default 0.6 from exact
+masks, whole hands from colour frames), as tracking does.
 
     .venv/bin/python benchmarks/bench_girdle.py [--runs DIR] [--frames 6]
 
-About 15 s for the eight runs on 2 cores (the hulls of the chosen frames, four fits each).
+About 15 s for the eight runs on 2 cores (the hulls of the chosen frames, four fits each;
+three runs took 5 s).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import devset  # noqa: E402
 from hullcap._fitting import PoseParameters, fit, make_target, quality  # noqa: E402
 from hullcap._results import load_result  # noqa: E402
 from hullcap._sequence import Sequence  # noqa: E402
+from hullcap._subject import with_hands  # noqa: E402
 from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
 
 RAISED = 0.20
@@ -78,12 +80,13 @@ def summary(result, truth: devset.Truth) -> np.ndarray:
 
 def refits(sequence: Path, result, truth: devset.Truth, exact: bool, frames) -> None:
     """Prints the fits of `frames` from the tracked pose and from raised clavicles."""
-    model, dofs = result.model, list(result.model.dof_names)
     options = TrackerOptions(use_silhouettes=exact)
-    tracker = Tracker(Sequence(sequence), model=model, options=options)
+    tracker = Tracker(Sequence(sequence), model=result.model, options=options)
+    model = with_hands(result.model, tracker._hand_reach)  # the hands tracking fits
+    dofs = list(model.dof_names)
     rows = {}
     for f in frames:
-        target = make_target(tracker.hull(f, (model, result.pose(f - 1))))
+        target = make_target(tracker.hull(f, (result.model, result.pose(f - 1))))
         starts = {"tracked": result.pose(f)}
         starts.update({f"clavicles {d:.0f}°": with_clavicles(model, result.pose(f), d) for d in ELEVATIONS})
         for label, start in starts.items():

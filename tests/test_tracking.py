@@ -145,21 +145,17 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
 
 
 def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(short_sequence):
-    model = BodyModel.template()
-    state = Tracker(Sequence(short_sequence), options=TrackerOptions(hand_reach=0.6))._tracking_state(model)
-    assert state.guide is model and state.search.model is state.model
-    assert np.array_equal(state.model.vertices, with_hands(model, 0.6).vertices)
-    whole = Tracker(Sequence(short_sequence), options=TrackerOptions(hand_reach=1.0))._tracking_state(model)
-    assert whole.model is model and whole.guide is model
-
-
-def test_the_hands_are_short_by_default_only_with_the_sequences_own_silhouettes(short_sequence):
+    """The hands asked for, and by default 0.6 with the sequence's own silhouettes only."""
     seq, model = Sequence(short_sequence), BodyModel.template()
     assert seq.has_silhouettes
-    given = Tracker(seq)._tracking_state(model)
-    assert np.array_equal(given.model.vertices, with_hands(model, 0.6).vertices)
-    subtracted = Tracker(seq, options=TrackerOptions(use_silhouettes=False))._tracking_state(model)
-    assert subtracted.model is model
+    for options, reach in ((TrackerOptions(hand_reach=0.6), 0.6), (TrackerOptions(hand_reach=1.0), 1.0),
+                           (TrackerOptions(), 0.6), (TrackerOptions(use_silhouettes=False), 1.0)):
+        state = Tracker(seq, options=options)._tracking_state(model)
+        assert state.guide is model and state.search.model is state.model
+        if reach == 1.0:
+            assert state.model is model
+        else:
+            assert np.array_equal(state.model.vertices, with_hands(model, reach).vertices)
 
 
 def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, tmp_path):

@@ -606,8 +606,8 @@ class Tracker:
     def _tracking_state(self, model: BodyModel, first: int | None = None, anchor: FitResult | None = None) -> _State:
         """The state of tracking a sequence with `model`: its fits take the model with the
         hands of ``options.hand_reach`` (by default as the silhouettes' source asks), the
-        silhouettes are guided by `model` itself. The
-        anchor (the fit at frame `first`) is fitted again with those hands."""
+        silhouettes are guided by `model` itself. The anchor (the fit at frame `first`) is
+        fitted again with those hands."""
         fitted = with_hands(model, self._hand_reach)
         if anchor is not None and fitted is not model:
             target = make_target(self.hull(first, (model, anchor.pose)))
