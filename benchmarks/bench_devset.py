@@ -2,13 +2,15 @@
 
 Renders each sequence once into ``data/devset/`` (ignored by git), tracks it as
 ``hullcap track`` does, from the colour frames (background subtraction) and, with
-``--silhouettes exact``, from the exact masks too, and prints one table: per sequence
+``--silhouettes exact``, from the exact masks too (``surface``: given the true body surface
+of each frame instead of its hull, what a perfect hull would give; with whole hands, since
+that surface keeps the fingers a hull loses), and prints one table: per sequence
 the subject model's limb-length errors against the truth, the mean joint error over the
 30 static calibration frames, MPJPE raw and offset-removed over the whole sequence,
 frames lost, frames re-acquired and frames/s. Each run's folder also gets ``frames.csv``:
 per frame the status, the fit's quality both ways and the true mean joint error.
 
-    .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact]
+    .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface]
 """
 
 from __future__ import annotations
@@ -29,11 +31,27 @@ from hullcap._sequence import Sequence  # noqa: E402
 from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
 
 
+class SurfaceTracker(Tracker):
+    """A tracker given each frame's true body surface (:class:`devset.TrueSurfaces`) where
+    it would carve a hull; the exact masks for the rest (the start's agreement test)."""
+
+    def __init__(self, sequence: Sequence, **kwargs):
+        super().__init__(sequence, **kwargs)
+        self._surfaces = devset.TrueSurfaces(sequence.path)
+
+    def _carve(self, frame: int, prior=None):
+        return self._surfaces(frame), self.masks(frame, None)
+
+
 def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions) -> dict:
     seq_path = devset.render(devset_dir, name)
     seq = Sequence(seq_path)
     truth = devset.Truth.load(devset_dir, seq_path)
-    tracker = Tracker(seq, options=replace(options, use_silhouettes=(mode == "exact")))
+    options = replace(options, use_silhouettes=mode != "colour")
+    if mode == "surface":
+        tracker = SurfaceTracker(seq, options=replace(options, hand_reach=1.0))
+    else:
+        tracker = Tracker(seq, options=options)
     t0 = time.perf_counter()
     result = tracker.run(out / f"{name}-{mode}", resume=False, show_progress=True, frames=frames)
     seconds = time.perf_counter() - t0
@@ -61,12 +79,12 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
 
 def table(rows: list[dict]) -> str:
     limbs = list(devset.LIMBS)
-    head = ("| sequence | cams | silhouettes | " + " | ".join(f"{l} (%)" for l in limbs)
+    head = ("| sequence | cams | silhouettes | " + " | ".join(f"{limb} (%)" for limb in limbs)
             + " | static (mm) | MPJPE raw (mm) | offset removed (mm) | lost | re-acquired | frames/s | fit frames/s |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         lines.append(f"| {r['sequence']} | {r['cameras']} | {r['silhouettes']} | "
-                     + " | ".join(f"{r['limb_error_pct'][l]:+.1f}" for l in limbs)
+                     + " | ".join(f"{r['limb_error_pct'][limb]:+.1f}" for limb in limbs)
                      + f" | {r['static_mm']:.1f} | {r['mpjpe_mm']:.1f} | {r['mpjpe_offset_removed_mm']:.1f} | "
                        f"{r['lost']} of {r['frames']} | {r['reacquired']} | {r['fps']:.1f} | {r['fit_fps']:.1f} |")
     return "\n".join(lines)
@@ -76,7 +94,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--devset", help="the development set's folder (default $HULLCAP_DEVSET or ../shared/devset)")
     ap.add_argument("--only", nargs="+", help="these sequences only")
-    ap.add_argument("--silhouettes", nargs="+", choices=["colour", "exact"], default=["colour"])
+    ap.add_argument("--silhouettes", nargs="+", choices=["colour", "exact", "surface"], default=["colour"])
     ap.add_argument("--frames", type=int, help="track only the first N frames of each")
     ap.add_argument("--out", default=str(devset.CACHE / "results"), help="where the runs are written")
     ap.add_argument("--json", help="also write the rows as JSON here")
@@ -86,10 +104,10 @@ def main():
     devset_dir = devset.find(args.devset)
     if devset_dir is None:
         ap.error("the development set is not here: pass --devset or set HULLCAP_DEVSET")
-    rows = []
+    rows, options = [], TrackerOptions(refine_joints=args.refine)
     for name in args.only or devset.names(devset_dir):
         for mode in args.silhouettes:
-            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, TrackerOptions(refine_joints=args.refine)))
+            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, options))
             print(table(rows[-1:]).splitlines()[-1], flush=True)
     print("\n" + table(rows))
     print("\nper joint, raw (mm):")

@@ -83,6 +83,48 @@ def _limb_lengths(names, positions) -> dict[str, float]:
     return out
 
 
+SURFACE_SAMPLES = 25_000
+"""Points drawn on a frame's true body surface: about as many as its hull has vertices."""
+
+
+class TrueSurfaces:
+    """The ground truth's body surface of each frame of a sequence as a hull would give it:
+    points drawn uniformly by area on the mesh's largest connected part (the skin; the
+    eyes are parts of their own), with their faces' outward normals. The same points of
+    the same triangles in every frame, so they move with the body. What tracking would
+    get from a perfect hull (``bench_devset.py --true-surfaces``)."""
+
+    def __init__(self, sequence: Path, samples: int = SURFACE_SAMPLES, seed: int = 0):
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import connected_components
+
+        self._vertices = np.load(sequence / "gt" / "vertices.npy", mmap_mode="r")
+        faces = np.load(sequence / "gt" / "faces.npy")
+        n = self._vertices.shape[1]
+        edges = coo_matrix((np.ones(faces.size), (faces.ravel(), np.roll(faces, 1, axis=1).ravel())), shape=(n, n))
+        _, part = connected_components(edges, directed=False)
+        skin = part[faces[:, 0]] == np.bincount(part).argmax()
+        rest = np.asarray(self._vertices[0], float)
+        area = np.linalg.norm(np.cross(rest[faces[:, 1]] - rest[faces[:, 0]], rest[faces[:, 2]] - rest[faces[:, 0]]),
+                              axis=1) * skin
+        rng = np.random.default_rng(seed)
+        self._faces = faces[rng.choice(len(faces), samples, p=area / area.sum())]
+        u, v = rng.random(samples), rng.random(samples)
+        outside = u + v > 1  # reflected back into the triangle: uniform over it
+        u[outside], v[outside] = 1 - u[outside], 1 - v[outside]
+        self._u, self._v = u[:, None], v[:, None]
+
+    def __call__(self, frame: int):
+        """The true surface of `frame` (a :class:`hullcap._mesh.Surface` without faces)."""
+        from hullcap._mesh import Surface
+
+        x = np.asarray(self._vertices[frame], float)
+        a, b, c = (x[self._faces[:, k]] for k in range(3))
+        normals = np.cross(b - a, c - a)
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+        return Surface(a + self._u * (b - a) + self._v * (c - a), np.zeros((0, 3), np.int64), normals)
+
+
 def model_limb_lengths(model) -> dict[str, float]:
     """The limb lengths of a body model at rest (metres)."""
     return _limb_lengths(list(model.joint_names), model.pose().joints[None])
