@@ -90,9 +90,10 @@ SURFACE_SAMPLES = 25_000
 class TrueSurfaces:
     """The ground truth's body surface of each frame of a sequence as a hull would give it:
     points drawn uniformly by area on the mesh's largest connected part (the skin; the
-    eyes are parts of their own), with their faces' outward normals. The same points of
-    the same triangles in every frame, so they move with the body. What tracking would
-    get from a perfect hull (``bench_devset.py --true-surfaces``)."""
+    eyes and the inside of the mouth are parts of their own), with their faces' outward
+    normals. The same points of the same triangles in every frame, so they move with the
+    body. What tracking would get from a perfect hull (``bench_devset.py --silhouettes
+    surface``)."""
 
     def __init__(self, sequence: Path, samples: int = SURFACE_SAMPLES, seed: int = 0):
         from scipy.sparse import coo_matrix
