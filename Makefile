@@ -31,7 +31,7 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_tracking.py
 	$(PY) benchmarks/bench_tracking.py --accuracy
 	$(PY) benchmarks/bench_batch.py
-	$(PY) benchmarks/bench_devset.py --silhouettes colour exact   # the benchmark of record, ~45 min
+	$(PY) benchmarks/bench_devset.py --silhouettes colour exact   # the benchmark of record, ~8 min
 	$(PY) benchmarks/bench_knee.py   # the subject model's knee search on the development set, ~10 min
 	$(PY) benchmarks/bench_girdle.py   # raised arms in bench_devset's runs: the shoulders' height, refits, ~15 s
 	$(VENV)/bin/pip install --quiet 'open3d>=0.18'   # needs Debian's libusb-1.0-0
