@@ -18,6 +18,10 @@ masks, whole hands from colour frames), as tracking does.
 
 About 15 s for the eight runs on 2 cores (the hulls of the chosen frames, four fits each;
 three runs took 5 s).
+
+``--section RUN FRAME`` draws instead one tracked frame of one run (``d03_punch_6cam-exact
+88``) in the plane of the neck, the right shoulder and the right elbow: the true body
+surface, the fitted model's surface and both skeletons (docs/raised_arm.png).
 """
 
 from __future__ import annotations
@@ -104,13 +108,62 @@ def refits(sequence: Path, result, truth: devset.Truth, exact: bool, frames) -> 
         print(f"  | {label} | {m[0]:.0f} / {m[1]:.0f} | {m[2]:+.0f} / {m[3]:+.0f} | {m[4]:.4f} | {m[5]:.4f} |")
 
 
+def section(runs: Path, run: str, frame: int, out: Path) -> None:
+    """Writes `out`: `frame` of `run` cut by the plane of the true neck, right shoulder and
+    right elbow, the true surface (green) and the tracked model's (red) within a slab."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    name = run.rsplit("-", 1)[0]
+    where = devset.find()
+    sequence = devset.render(where, name)
+    truth = devset.Truth.load(where, sequence)
+    result = load_result(runs / run)
+    p = result.pose(frame)
+    posed = result.model.pose(p.theta, p.root_rotation, p.root_translation)
+    true_joints = [truth.positions[frame, truth.names.index(j)] for j in ("neck", "r_shoulder", "r_elbow", "r_wrist")]
+    neck, shoulder, elbow = true_joints[:3]
+    u = (shoulder - neck) / np.linalg.norm(shoulder - neck)
+    w = np.cross(u, elbow - shoulder)
+    w /= np.linalg.norm(w)
+    v = np.cross(w, u)
+
+    def plane(points, slab):
+        d = np.asarray(points) - neck
+        keep = np.abs(d @ w) < slab
+        return d[keep] @ u, d[keep] @ v
+
+    fig, ax = plt.subplots(figsize=(6, 8))
+    ax.scatter(*plane(devset.TrueSurfaces(sequence, samples=200_000)(frame).vertices, 0.006), s=1, c="green",
+               label="true surface")
+    ax.scatter(*plane(posed.vertices, 0.012), s=4, c="red", label="tracked model")
+    names = list(result.model.joint_names)
+    ours = [posed.joints[names.index(j)] for j in ("neck", "r_shoulder", "r_elbow", "r_wrist")]
+    ax.plot(*plane(ours, np.inf), "o-", c="red", label="its joints")
+    ax.plot(*plane(true_joints, np.inf), "k*-", ms=11, label="true joints")
+    ax.set_aspect("equal")
+    ax.set_xlabel("m, along the true neck → right shoulder")
+    ax.legend(loc="lower right")
+    ax.set_title(f"{run}, frame {frame}")
+    fig.savefig(out, dpi=70, bbox_inches="tight")
+    print(f"wrote {out}")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--runs", default=str(devset.CACHE / "results"), help="where bench_devset.py wrote its runs")
     ap.add_argument("--frames", type=int, default=6, help="raised frames refitted per run")
+    ap.add_argument("--section", nargs=2, metavar=("RUN", "FRAME"),
+                    help="draw one frame of one run in the plane of the neck, right shoulder and elbow")
+    ap.add_argument("--out", default="docs/raised_arm.png", help="where --section writes its picture")
     args = ap.parse_args()
     if args.frames < 1:
         ap.error("--frames must be at least 1")
+    if args.section:
+        section(Path(args.runs), args.section[0], int(args.section[1]), Path(args.out))
+        return
     where = devset.find()
     if where is None:
         raise SystemExit("the development set is not here: set HULLCAP_DEVSET")
