@@ -135,6 +135,48 @@ def test_an_arm_raised_overhead_is_fitted_with_its_shoulder_girdle_lifted():
     assert not search.same_arm_lines(plain.pose, raised(0, 25))  # arms lowered 60°: the search's to find
 
 
+def test_the_girdle_fit_stands_within_its_tolerance_in_tracking_and_only_when_better_in_the_window(
+        tmp_path, monkeypatch):
+    """Tracking keeps the fit from the girdle start while it explains the hull at most
+    `girdle_tolerance` less than the tracked fit and reaches the same arms; the first
+    seconds tracked for the subject's model keep it only when it explains the hull better."""
+    from types import SimpleNamespace
+
+    from hullcap._fitting import PoseParameters
+    from hullcap._reacquire import SearchOptions
+    from hullcap._tracking import _State
+    from hullcap.errors import OptionsError
+
+    model = BodyModel.template()
+    names = list(model.dof_names)
+    theta = np.zeros(model.n_dofs)
+    for side in "lr":
+        theta[names.index(f"{side}_shoulder_abduction")] = np.radians(85)
+    pose = PoseParameters(theta, np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
+    state = _State(model, TrackerOptions(), None)
+    girdle = state.search.girdle_start(pose)
+    lowered = PoseParameters(np.zeros(model.n_dofs), pose.root_rotation, pose.root_translation)
+
+    def result(p, q):
+        return SimpleNamespace(pose=p, inlier_fraction=q, coverage=q)
+
+    tracked, tolerance = result(pose, 0.83), SearchOptions().girdle_tolerance
+    assert tolerance == 0.005
+    assert state.takes_girdle_fit(tracked, result(girdle, 0.83 - 0.8 * tolerance))
+    assert not state.takes_girdle_fit(tracked, result(girdle, 0.83 - 1.2 * tolerance))
+    assert not state.takes_girdle_fit(tracked, result(lowered, 0.9))  # other arms: the search's to find
+    with pytest.raises(OptionsError):
+        SearchOptions(girdle_tolerance=-0.01)
+
+    # The window's state, as Tracker._refine builds it.
+    seen = []
+    monkeypatch.setattr(Tracker, "_track", lambda self, state, *args: seen.append(state.search.options))
+    seq_path, _, _ = render(tmp_path / "seq")
+    Tracker(Sequence(seq_path), options=TrackerOptions(calibration_seconds=0.2)).run(
+        tmp_path / "out", show_progress=False, frames=8)
+    assert seen[0].girdle_tolerance == 0 and seen[-1].girdle_tolerance == tolerance
+
+
 def test_a_search_ranks_at_the_resolution_of_the_stages():
     """The tracker's fit pairs every second point in its stages; its search scores
     candidates on as many."""

@@ -82,6 +82,15 @@ class SearchOptions:
             set the lines turn 0–2°; a fit from it that turned a line 57° (d04, a wrist
             34 cm off for a quality 0.002 higher) had found another pose, which is the
             search's to propose, not the rhythm's.
+        girdle_tolerance: and while its quality is at most this much below the fit from
+            the prediction (a fraction of points, like the quality): along a straight arm
+            the hull hardly tells the two apart (on six overhead frames of d03 from exact
+            masks the tracked fit explained 0.8301 of the hull, the same arm with the
+            clavicles at 20° and 40° 0.8233 and 0.8271, and the raised girdle was the
+            one nearer the truth), so within that the rhythm decides. 0 keeps the start
+            only when it explains the hull better. The first seconds tracked to build
+            the subject's model use 0: their poses make the model, so each stands on the
+            hull alone.
     """
 
     headings: int = 8
@@ -91,6 +100,7 @@ class SearchOptions:
     girdle_share: float = 1 / 3
     girdle_margin: float = math.radians(10.0)
     girdle_turn: float = math.radians(15.0)
+    girdle_tolerance: float = 0.005
 
     def __post_init__(self):
         if min(self.headings, self.keep, self.chain_samples, self.recent) < 1:
@@ -98,6 +108,8 @@ class SearchOptions:
         if not (0 <= self.girdle_share < 1 and self.girdle_margin > 0 and self.girdle_turn > 0):
             raise OptionsError(f"SearchOptions: girdle_share must be in [0, 1), girdle_margin and girdle_turn "
                                f"positive, got {self.girdle_share}, {self.girdle_margin} and {self.girdle_turn}")
+        if not 0 <= self.girdle_tolerance < 1:
+            raise OptionsError(f"SearchOptions: girdle_tolerance must be in [0, 1), got {self.girdle_tolerance}")
 
 
 def chain_links(model: BodyModel) -> list[np.ndarray]:

@@ -575,11 +575,12 @@ class Tracker:
         its pose at `first`."""
         last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
-        # The model is built from these poses: full fits (the girdle start's too), and a
-        # search whenever one is not good. The search fits its candidates as tracking does
-        # (it mostly confirms the tracked fit); a pose it finds is fitted again in full.
+        # The model is built from these poses: full fits (the girdle start's too, kept only
+        # when it explains the hull better), and a search whenever one is not good. The
+        # search fits its candidates as tracking does (it mostly confirms the tracked fit);
+        # a pose it finds is fitted again in full.
         strict = replace(self.options, fit=self.options.calibration_fit, quick_fit=None, girdle_fit=None,
-                         recheck_margin=None)
+                         recheck_margin=None, search=replace(self.options.search, girdle_tolerance=0.0))
         state = _State(subject.model, strict, subject.fit, search_fit=self.options.fit)
         for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
             self._track(state, window, frame)
@@ -649,7 +650,7 @@ class Tracker:
             girdle_options = first if options.girdle_fit is None else options.girdle_fit
             fitted = self._fit_from(state, target, girdle, girdle_options)
             iterations += fitted.iterations
-            if quality(fitted) > quality(best) and state.search.same_arm_lines(best.pose, fitted.pose):
+            if state.takes_girdle_fit(best, fitted):
                 best = fitted
         status = GOOD if best is not None and state.good(best) else FAILED
         if status == FAILED and options.reacquire:
@@ -806,6 +807,13 @@ class _State:
         """Whether a fit is as good as the accepted frames before it (``quality_margin``,
         ``chain_margin``)."""
         return quality(fitted) >= self.floor() and not self.lost_chains(fitted)
+
+    def takes_girdle_fit(self, tracked: FitResult, fitted: FitResult) -> bool:
+        """Whether the fit from the girdle start stands for `tracked`: it reaches the same
+        arms (``SearchOptions.girdle_turn``) and explains the hull as well, or at most
+        ``SearchOptions.girdle_tolerance`` less (there the rhythm decides)."""
+        tolerance = self.search.options.girdle_tolerance
+        return quality(fitted) > quality(tracked) - tolerance and self.search.same_arm_lines(tracked.pose, fitted.pose)
 
     def good(self, fitted: FitResult) -> bool:
         """Whether a fit stands without a search: it passes the reference, or it is as
