@@ -108,7 +108,7 @@ def refits(sequence: Path, result, truth: devset.Truth, exact: bool, frames) -> 
         print(f"  | {label} | {m[0]:.0f} / {m[1]:.0f} | {m[2]:+.0f} / {m[3]:+.0f} | {m[4]:.4f} | {m[5]:.4f} |")
 
 
-def section(runs: Path, run: str, frame: int, out: Path) -> None:
+def section(where: Path, runs: Path, run: str, frame: int, out: Path) -> None:
     """Writes `out`: `frame` of `run` cut by the plane of the true neck, right shoulder and
     right elbow, the true surface (green) and the tracked model's (red) within a slab."""
     import matplotlib
@@ -117,7 +117,6 @@ def section(runs: Path, run: str, frame: int, out: Path) -> None:
     import matplotlib.pyplot as plt
 
     name = run.rsplit("-", 1)[0]
-    where = devset.find()
     sequence = devset.render(where, name)
     truth = devset.Truth.load(where, sequence)
     result = load_result(runs / run)
@@ -161,12 +160,15 @@ def main():
     args = ap.parse_args()
     if args.frames < 1:
         ap.error("--frames must be at least 1")
-    if args.section:
-        section(Path(args.runs), args.section[0], int(args.section[1]), Path(args.out))
-        return
     where = devset.find()
     if where is None:
         raise SystemExit("the development set is not here: set HULLCAP_DEVSET")
+    if args.section:
+        run, frame = args.section
+        if not frame.isdigit():
+            ap.error(f"--section: FRAME must be a frame number, got {frame!r}")
+        section(where, Path(args.runs), run, int(frame), Path(args.out))
+        return
     found = False
     for name in devset.names(where):
         sequence = devset.render(where, name)
