@@ -7,6 +7,7 @@ import hullcap
 import numpy as np
 import pytest
 from hullcap import BodyModel, LinkModel
+from hullcap._fitting import PoseParameters, yaw_rotation
 from hullcap._links import STANDARD_LINKS
 from hullcap._mesh import check_closed
 
@@ -126,7 +127,9 @@ def test_clamping_respects_joint_limits(model):
         model.pose(root_rotation=np.eye(2))
 
 
-def test_analytic_derivatives_match_finite_differences_for_every_dof(model):
+@pytest.mark.parametrize("wrists", [False, True])
+def test_analytic_derivatives_match_finite_differences_for_every_dof(model, wrists):
+    model = model.with_wrists() if wrists else model
     rng = np.random.default_rng(3)
     lim = model.link_model.dof_limits
     theta = rng.uniform(lim[:, 0] * 0.5, lim[:, 1] * 0.5)
@@ -134,9 +137,9 @@ def test_analytic_derivatives_match_finite_differences_for_every_dof(model):
     R *= np.linalg.det(R)
     t = rng.normal(size=3)
     jac = model.jacobian(theta, R, t)
-    assert jac.shape == (len(model.vertices), 35, 3)
+    assert jac.shape == (len(model.vertices), 6 + model.n_dofs, 3)
     h = 1e-6
-    for p in range(35):
+    for p in range(6 + model.n_dofs):
         def posed(sign):
             th, rot, tr = theta.copy(), R, t.copy()
             if p < 3:
@@ -151,6 +154,46 @@ def test_analytic_derivatives_match_finite_differences_for_every_dof(model):
             return model.pose(th, rot, tr, clamp=False).vertices
         fd = (posed(1) - posed(-1)) / (2 * h)
         assert np.abs(fd - jac[:, p]).max() < 1e-6, model.all_dof_names[p]
+
+
+def test_wrists_turn_the_hands_alone_and_keep_every_joint_of_the_papers_model(model, tmp_path):
+    wrists = model.with_wrists()
+    assert wrists.n_dofs == 33 and wrists.joint_names == model.joint_names
+    assert wrists.with_wrists() is wrists
+    links = wrists.link_model
+    assert {links.joints[links.dof_links[d]] for d in links.hierarchy[-1]} == {"l_elbow", "r_elbow",
+                                                                               "l_wrist", "r_wrist"}
+    # Any pose of the paper's model, carried over with straight wrists: the same joints.
+    rng = np.random.default_rng(5)
+    lim = model.link_model.dof_limits
+    pose = PoseParameters(rng.uniform(lim[:, 0], lim[:, 1]), yaw_rotation(0.7), np.array([0.1, 0.2, 1.0]))
+    carried = pose.carried(model, wrists)
+    a = model.pose(pose.theta, pose.root_rotation, pose.root_translation)
+    b = wrists.pose(carried.theta, carried.root_rotation, carried.root_translation)
+    assert np.allclose(a.joints, b.joints, atol=1e-12)
+    assert np.array_equal(wrists.pose().vertices, model.pose().vertices)
+    # A wrist turns its hand (the template's palms face down, thumbs forward) and nothing else.
+    rest = wrists.pose()
+    index, weight = wrists.skin
+    for side, sign in (("l", 1), ("r", -1)):
+        hand = links.names.index(f"{side}_hand")
+        carries = ((index == hand) & (weight > 0)).any(axis=1)
+        tip = np.argmax(sign * wrists.vertices[:, 0])
+        for dof, moves in (("wrist_flexion", (2, -1)), ("wrist_deviation", (1, -1))):
+            theta = np.zeros(wrists.n_dofs)
+            theta[wrists.dof_names.index(f"{side}_{dof}")] = 0.5
+            posed = wrists.pose(theta)
+            moved = np.linalg.norm(posed.vertices - rest.vertices, axis=1) > 0
+            assert moved[tip] and not (moved & ~carries).any(), dof
+            axis, direction = moves
+            assert direction * (posed.vertices[tip, axis] - rest.vertices[tip, axis]) > 0.05, dof
+            assert np.allclose(posed.joints, rest.joints), dof
+    # Saved and loaded with its hands.
+    wrists.save(tmp_path / "subject")
+    back = BodyModel.load(tmp_path / "subject")
+    assert back.dof_names == wrists.dof_names and back.with_wrists() is back
+    theta = rng.uniform(links.dof_limits[:, 0], links.dof_limits[:, 1])
+    assert np.allclose(back.pose(theta).vertices, wrists.pose(theta).vertices)
 
 
 def test_scaling_moves_joints_and_keeps_the_mesh_attached(model):

@@ -37,17 +37,19 @@ def forward_kinematics(mocap, frame):
     return {n: t for n, (_, t) in world.items()}
 
 
-@pytest.mark.parametrize("up, units", [("y", "m"), ("y", "cm"), ("z", "m")])
-def test_bvh_read_by_an_independent_parser_reproduces_the_joints(tmp_path, up, units):
+@pytest.mark.parametrize("up, units, wrists", [("y", "m", False), ("y", "cm", False), ("z", "m", False),
+                                               ("y", "m", True)])
+def test_bvh_read_by_an_independent_parser_reproduces_the_joints(tmp_path, up, units, wrists):
     """Read as Blender reads it by default (y up), the skeleton stands: head above pelvis
     along +y, and every joint is ours under (x, y, z) → (x, z, −y)."""
     from hullcap.export._motion import Z_UP_TO_Y_UP
 
     model = BodyModel.template().scaled({"l_thigh": 1.1, "r_thigh": 1.1}, {"torso": 0.9})
+    model = model.with_wrists() if wrists else model
     rng = np.random.default_rng(5)
     lim = model.link_model.dof_limits
     frames = 6
-    theta = np.clip(rng.normal(0, 0.5, (frames, 29)), lim[:, 0], lim[:, 1])
+    theta = np.clip(rng.normal(0, 0.5, (frames, model.n_dofs)), lim[:, 0], lim[:, 1])
     angles = rng.uniform(-np.pi, np.pi, frames)
     R = np.array([rot("z", np.degrees(a)) @ rot("x", 10) for a in angles])
     t = rng.normal(0, 0.5, (frames, 3)) + (0, 0, 1)
@@ -149,15 +151,17 @@ def _matrix(translation=None, rotation=None):
     return M
 
 
-def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path):
+@pytest.mark.parametrize("wrists", [False, True])
+def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path, wrists):
     pygltflib = pytest.importorskip("pygltflib", reason="the independent glTF reader (pip install pygltflib)")
     from hullcap.export._gltf import write_glb
     from hullcap.export._motion import Z_UP_TO_Y_UP
 
     model = BodyModel.template().scaled({"torso": 1.05}, {"l_thigh": 0.9})
+    model = model.with_wrists() if wrists else model
     rng = np.random.default_rng(11)
     lim = model.link_model.dof_limits
-    theta = np.clip(rng.normal(0, 0.5, (4, 29)), lim[:, 0], lim[:, 1])
+    theta = np.clip(rng.normal(0, 0.5, (4, model.n_dofs)), lim[:, 0], lim[:, 1])
     R = np.array([rot("z", a) for a in (0, 40, 120, -70)])
     t = rng.normal(0, 0.3, (4, 3)) + (0, 0, 1)
     write_glb(tmp_path / "model.glb", model, t, R, theta, fps=25)

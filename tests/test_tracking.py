@@ -134,8 +134,9 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     header = (tmp_path / "out" / "joints.csv").read_text().splitlines()
     assert header[0] == "frame,time,joint,x,y,z,status" and len(header) == 1 + 20 * 21
     pose = np.load(tmp_path / "out" / "pose.npz")
-    assert pose["theta"].shape == (20, 29) and not pose["failed"].any()
-    assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 29
+    # The subject's model is built with the paper's 29 DOF; tracking adds the wrists.
+    assert pose["theta"].shape == (20, 33) and not pose["failed"].any()
+    assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 33
     # The same subject tracked again with quick fits: as close, for fewer iterations.
     again = Tracker(seq, model=BodyModel.load(tmp_path / "out" / "model"),
                     options=TrackerOptions(quick_fit=quick_fit_options()))
@@ -156,6 +157,15 @@ def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(sh
             assert state.model is model
         else:
             assert np.array_equal(state.model.vertices, with_hands(model, reach).vertices)
+    # Hands that turn at the wrists are shortened alike.
+    assert np.array_equal(with_hands(model.with_wrists(), 0.6).vertices, with_hands(model, 0.6).vertices)
+
+
+def test_the_papers_29_dof_throughout_when_asked(short_sequence, tmp_path):
+    options = TrackerOptions(refine_joints=False, wrists=False)
+    result = Tracker(Sequence(short_sequence), options=options).run(tmp_path / "out", show_progress=False, frames=3)
+    assert result.model.n_dofs == 29 and result.theta.shape == (3, 29) and not result.failed.any()
+    assert BodyModel.load(tmp_path / "out" / "model").n_dofs == 29
 
 
 def test_a_blank_camera_and_a_missing_mask_do_not_stop_tracking(short_sequence, tmp_path):

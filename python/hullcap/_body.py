@@ -102,6 +102,12 @@ class BodyModel:
         return BodyModel(self._links, self._vertices, self._faces,
                          b=self._b if b is None else b, k=self._k if k is None else k)
 
+    def with_wrists(self) -> BodyModel:
+        """The same mesh with hands that turn at the wrists (:meth:`LinkModel.with_wrists`),
+        skinned afresh; this model when its link model has no wrist to add."""
+        links = self._links.with_wrists()
+        return self if links is self._links else BodyModel(links, self._vertices, self._faces, b=self._b, k=self._k)
+
     def scaled(self, lengths: dict | None = None, girths: dict | None = None) -> BodyModel:
         """The body with per-segment proportions: link j stretched by ``lengths[name]``
         along its segment and ``girths[name]`` across it, about its joint centre; the

@@ -18,8 +18,8 @@ def _track(args) -> int:
 
     options = TakeOptions(voxel=args.voxel, background=args.background, ignore_silhouettes=args.ignore_silhouettes,
                           volume=args.volume, frames=args.frames, refine_joints=args.refine_joints,
-                          hand_reach=args.hand_reach, overlays=not args.no_overlay, interpolate=args.interpolate,
-                          smooth=args.smooth)
+                          hand_reach=args.hand_reach, wrists=args.wrists, overlays=not args.no_overlay,
+                          interpolate=args.interpolate, smooth=args.smooth)
     track_take(args.sequence, args.out, options, model=args.model, resume=not args.restart, say=print,
                warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
     return 0
@@ -187,6 +187,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="fit each hand pulled toward its wrist to this fraction of its length (1: whole hands; "
                         "default 0.6 with the sequence's own silhouettes, 1 with background subtraction, see "
                         "docs/accuracy.md)")
+    t.add_argument("--no-wrists", dest="wrists", action="store_false",
+                   help="track with the paper's 29 DOF, each hand rigid with its forearm (default: the hands turn at "
+                        "the wrists, two DOF each, added once the subject's model is built)")
     _output_options(t)
     t.set_defaults(run=_track)
 

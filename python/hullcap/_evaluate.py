@@ -39,7 +39,10 @@ def accuracy(result, sequence_path) -> Accuracy:
         names = tuple(str(n) for n in z["names"])
         true_joints = z["positions"]
     with np.load(truth_dir / "pose.npz") as z:
-        true_theta = z["theta"]
+        truth = dict(zip((str(n) for n in z["dof_names"]), z["theta"].T))
+    # A DOF the truth's model lacks (a wrist of BodyModel.with_wrists) is straight there.
+    straight = np.zeros(len(true_joints))
+    true_theta = np.stack([truth.get(n, straight) for n in result.model.dof_names], axis=1)
     n = len(result.failed)
     ok = ~result.failed
     index = [names.index(j) for j in result.model.joint_names]

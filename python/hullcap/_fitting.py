@@ -45,6 +45,14 @@ class PoseParameters:
         return cls(np.zeros(model.n_dofs), R, t)
 
 
+    def carried(self, source: BodyModel, model: BodyModel) -> PoseParameters:
+        """This pose of `source` as a pose of `model`, joint angle by joint angle by DOF
+        name; a DOF `source` lacks (a wrist, :meth:`BodyModel.with_wrists`) is 0."""
+        index = {name: i for i, name in enumerate(source.dof_names)}
+        theta = np.array([self.theta[index[n]] if n in index else 0.0 for n in model.dof_names])
+        return PoseParameters(theta, self.root_rotation, self.root_translation)
+
+
 @dataclass(frozen=True)
 class FitResult:
     """A fitted pose with the fit's statistics (see :func:`fit`).

@@ -142,6 +142,67 @@ class LinkModel:
         """`theta` (…, D) clamped into the joint limits."""
         return np.clip(theta, self.dof_limits[:, 0], self.dof_limits[:, 1])
 
+    def with_wrists(self) -> LinkModel:
+        """This model with each hand a joint link of its own (``l_hand``, ``r_hand``) that
+        turns at the wrist by :data:`WRIST_DOFS`; the same model when no side has a
+        forearm link with a ``wrist`` site (a model that has its hands already).
+
+        The paper's 29 DOF have no wrist: a hand turns rigidly with its forearm, and a
+        bent hand in the hull pulls the whole forearm toward it. The hand's joint is the
+        wrist site; the forearm's segment now ends short of it and the hand's runs from
+        beyond it to past the forearm's old end (by :data:`WRIST_GAP` and
+        :data:`HAND_REACH` of the forearm's length), so that the skin weights give the
+        hand's vertices to the hand's link and blend the wrist's between the two. The
+        wrists join the elbows' group of the hierarchy."""
+        spec = self.to_dict()
+        links, added = [], []
+        for link in spec["links"]:
+            links.append(link)
+            side = link["name"][:2]
+            wrist = f"{side}wrist"
+            if link["name"] not in ("l_forearm", "r_forearm") or wrist not in self.joint_names or wrist in self.joints:
+                continue
+            j = self.names.index(link["name"])
+            centre = self.joint_points[self.joint_names.index(wrist)]
+            start, end = self.segments[j]
+            along = (end - start) / np.linalg.norm(end - start)
+            length = np.linalg.norm(centre - self.origins[j])
+            link["segment"] = [start.tolist(), (centre - WRIST_GAP * length * along).tolist()]
+            mirror = np.array([1.0, -1.0, -1.0]) if side == "r_" else np.ones(3)  # an axis is a pseudovector
+            links.append({"name": f"{side}hand", "parent": link["name"], "joint": wrist, "origin": centre.tolist(),
+                          "segment": [(centre + WRIST_GAP * length * along).tolist(),
+                                      (end + HAND_REACH * length * along).tolist()],
+                          "dofs": [{"name": f"{side}{name}", "axis": (mirror * axis + 0.0).tolist(),
+                                    "limits": list(limits)} for name, axis, limits in WRIST_DOFS]})
+            added.append((wrist, f"{side}elbow"))
+        if not added:
+            return self
+        spec["links"] = links
+        wrists = {w for w, _ in added}
+        spec["sites"] = [site for site in spec["sites"] if site["name"] not in wrists]
+        for wrist, elbow in added:
+            group = next((g for g in spec["hierarchy"] if elbow in g), spec["hierarchy"][-1])
+            group.append(wrist)
+        return LinkModel.from_dict(spec, source=f"{self.source} with wrists")
+
+
+WRIST_DOFS = (("wrist_flexion", (0.0, 1.0, 0.0), (-70.0, 80.0)),
+              ("wrist_deviation", (0.0, 0.0, -1.0), (-30.0, 20.0)))
+"""The DOF of a hand turning at its wrist (:meth:`LinkModel.with_wrists`): name, the left
+side's axis at rest (the right side's is mirrored) and limits in degrees. At rest the
+template's arms lie along x with the palms down and the thumbs forward (−y): flexion
+turns the hand toward the palm, deviation toward the thumb (radial; negative: ulnar). The
+limits are the wrist's usual ranges of motion: 70° extension, 80° flexion, 20° radial and
+30° ulnar deviation (the American Academy of Orthopaedic Surgeons' normal values)."""
+
+WRIST_GAP = 0.08
+"""The forearm's segment ends, and the hand's begins, this fraction of the forearm's length
+(elbow to wrist) short of and beyond the wrist: 2 cm on the template."""
+
+HAND_REACH = 0.04
+"""The hand's segment ends this fraction of the forearm's length beyond the forearm's old
+segment end: 1 cm on the template, 4 cm short of its fingertips."""
+
 
 def _parse(spec: dict, source: str) -> LinkModel:
     def fail(msg):

@@ -49,8 +49,8 @@ CANONICAL_POSES = {
 DOF name, where a name without ``l_``/``r_`` means both sides."""
 
 CHAINS = {
-    "left arm": ("l_clavicle", "l_upper_arm", "l_forearm"),
-    "right arm": ("r_clavicle", "r_upper_arm", "r_forearm"),
+    "left arm": ("l_clavicle", "l_upper_arm", "l_forearm", "l_hand"),
+    "right arm": ("r_clavicle", "r_upper_arm", "r_forearm", "r_hand"),
     "left leg": ("l_thigh", "l_shin", "l_foot"),
     "right leg": ("r_thigh", "r_shin", "r_foot"),
     "trunk": ("torso", "head"),

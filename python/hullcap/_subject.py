@@ -350,9 +350,10 @@ def _limited(model: BodyModel, limits: dict) -> BodyModel:
 
 
 def with_hands(model: BodyModel, reach: float) -> BodyModel:
-    """`model` with each hand (the vertices its forearm link carries most, beyond the
-    wrist along the forearm) pulled toward the wrist to `reach` (0 < reach ≤ 1) of its
-    length; the same skin weights and joints. `model` itself for a reach of 1 or a model
+    """`model` with each hand (the vertices its forearm link, or its hand link where the
+    hands turn at the wrists, carries most, beyond the wrist along the forearm) pulled
+    toward the wrist to `reach` (0 < reach ≤ 1) of its length; the same skin weights and
+    joints. `model` itself for a reach of 1 or a model
     without forearms and wrists. What tracking fits (``TrackerOptions.hand_reach``)."""
     if not 0 < reach <= 1:
         raise OptionsError(f"hand reach must be in (0, 1], got {reach}")
@@ -369,7 +370,8 @@ def with_hands(model: BodyModel, reach: float) -> BodyModel:
         along = wrist - links.segments[forearm, 0]
         along = along / np.linalg.norm(along)
         beyond = (vertices - wrist) @ along
-        hand = (dominant == forearm) & (beyond > 0)
+        carriers = [forearm] + [links.names.index(n) for n in (f"{s}_hand",) if n in links.names]
+        hand = np.isin(dominant, carriers) & (beyond > 0)
         vertices[hand] -= np.outer((1 - reach) * beyond[hand], along)
     b, k = model.skin_parameters
     return BodyModel(links, vertices, model.faces, skin=(index, weight), b=b, k=k)

@@ -35,6 +35,8 @@ class TakeOptions:
             given model is used as it is).
         hand_reach: the part of each hand the fits keep (``TrackerOptions.hand_reach``;
             1 = whole hands; ``None``: 0.6 with the take's own silhouettes, 1 otherwise).
+        wrists: track with hands that turn at the wrists (``TrackerOptions.wrists``;
+            ``False``: the paper's 29 DOF, hands rigid with the forearms).
         overlays: write ``overlay/<cam>.mp4``.
         interpolate: fill failed frames between fitted ones in the outputs.
         smooth: also write trajectories low-passed at this cut-off (Hz).
@@ -47,6 +49,7 @@ class TakeOptions:
     frames: int | None = None
     refine_joints: bool = True
     hand_reach: float | None = None
+    wrists: bool = True
     overlays: bool = True
     interpolate: bool = False
     smooth: float | None = None
@@ -70,7 +73,7 @@ def _checked(key: str, value, where: str):
     def bad(want: str):
         return OptionsError(f"{where}: {key} must be {want}, got {value!r}")
 
-    if key in ("ignore_silhouettes", "refine_joints", "overlays", "interpolate"):
+    if key in ("ignore_silhouettes", "refine_joints", "wrists", "overlays", "interpolate"):
         if not isinstance(value, bool):
             raise bad("true or false")
         return value
@@ -138,7 +141,8 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     body = BodyModel.load(model) if model is not None else None
     tracker_options = TrackerOptions(voxel_size=options.voxel, background=options.background,
                                      use_silhouettes=not options.ignore_silhouettes,
-                                     refine_joints=options.refine_joints, hand_reach=options.hand_reach)
+                                     refine_joints=options.refine_joints, hand_reach=options.hand_reach,
+                                     wrists=options.wrists)
     tracker = Tracker(seq, model=body, options=tracker_options, bounds=options.volume)
     say(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
         + (" (given)" if options.volume else " (every camera sees it; --volume to change)"))

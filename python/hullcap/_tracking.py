@@ -207,10 +207,10 @@ class TrackerOptions:
         hand_reach: the part of each hand (wrist to fingertips) the fits of tracking keep
             (:func:`hullcap._subject.with_hands`): the sequence is fitted with the
             subject's model whose hands are pulled toward the wrists to this fraction of
-            their length. The link model has no wrist joint, so a hand turns rigidly with
-            its forearm, and a visual hull keeps the palm but loses spread fingers: a hand
-            of full length then meets a bent or fingerless hand in the hull, and the fit
-            may slide the whole arm along its line to match them. The subject's model
+            their length. A visual hull keeps the palm but loses spread fingers: a hand
+            of full length then meets a fingerless hand in the hull, and the fit may
+            slide the whole arm along its line to match them (measured with hands rigid
+            on the forearms, before `wrists`). The subject's model
             itself keeps its whole hands: it is built with them (built with short ones,
             the shape fit stretched the forearms to fill the hull's hands), saved with
             them, and the silhouettes are guided by it. ``None`` (default): 0.6 with the
@@ -220,6 +220,17 @@ class TrackerOptions:
             raised, 14 mm low instead of 26); from colour frames it gained nothing, and at
             0.7 one run was lost from its 75th frame on (docs/accuracy.md, "Hands as the
             hull sees them").
+        wrists: track with hands that turn at the wrists (:meth:`BodyModel.with_wrists`,
+            two DOF each), added to the subject's model once it is built; the results
+            and the saved model have them. The subject's model is built with the paper's
+            29 DOF, whose hands turn rigidly with the forearms: the calibration pose
+            holds the hands straight, and built with wrists (a trial) the forearms came
+            out 6–9 % too long on three development bodies of four. In motion a
+            rigid hand that the hull shows bent pulls its forearm toward it: with wrists
+            the development set's mean error went 23.7 / 16.3 → 23.2 / 15.7 mm from colour
+            frames and 21.3 / 13.9 → 20.8 / 13.5 from exact masks, the synthetic demo's,
+            whose hands never bend, 5.0 → 5.6 mm (docs/accuracy.md). ``False``: the
+            paper's 29 DOF throughout.
         read_ahead: frames decoded and put through the background test on a second
             thread while the engine fits the frame before (:mod:`hullcap._threads`); 0
             reads each frame when it is tracked. The results are the same either way.
@@ -251,6 +262,7 @@ class TrackerOptions:
     motion_sigma: float | None = None
     motion_prior_distance: float = 0.003
     hand_reach: float | None = None
+    wrists: bool = True
     read_ahead: int = 2
     seed: int = 0
 
@@ -472,9 +484,10 @@ class Tracker:
             # that the per-stage seconds are those of tracking the sequence once.
             self.seconds = defaultdict(float, before)
             self.seconds["subject"] += time.perf_counter() - t0
-            model.save(out / "model")
-            result = TrackingResult.empty(model, n, self.sequence.fps)
-            state = self._tracking_state(model, start, anchor)
+            tracked = model.with_wrists() if self.options.wrists else model
+            tracked.save(out / "model")
+            result = TrackingResult.empty(tracked, n, self.sequence.fps)
+            state = self._tracking_state(tracked, start, anchor, built=model)
         else:
             state = self._tracking_state(result.model)
             state.remember(result, start)
@@ -604,15 +617,18 @@ class Tracker:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
 
-    def _tracking_state(self, model: BodyModel, first: int | None = None, anchor: FitResult | None = None) -> _State:
+    def _tracking_state(self, model: BodyModel, first: int | None = None, anchor: FitResult | None = None,
+                        built: BodyModel | None = None) -> _State:
         """The state of tracking a sequence with `model`: its fits take the model with the
         hands of ``options.hand_reach`` (by default as the silhouettes' source asks), the
-        silhouettes are guided by `model` itself. The anchor (the fit at frame `first`) is
-        fitted again with those hands."""
+        silhouettes are guided by `model` itself. The anchor (the fit at frame `first` of
+        the subject's model as built, `built`, by default `model`; ``options.wrists`` may
+        have given `model` wrists since) is fitted again with the model the fits take."""
+        built = built or model
         fitted = with_hands(model, self._hand_reach)
-        if anchor is not None and fitted is not model:
-            target = make_target(self.hull(first, (model, anchor.pose)))
-            anchor = fit(fitted, target, anchor.pose, self.options.subject.fit)
+        if anchor is not None and fitted is not built:
+            target = make_target(self.hull(first, (built, anchor.pose)))
+            anchor = fit(fitted, target, anchor.pose.carried(built, fitted), self.options.subject.fit)
         return _State(fitted, self.options, anchor, guide=model)
 
     def _track(self, state: _State, result: TrackingResult, frame: int) -> None:
