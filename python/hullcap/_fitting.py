@@ -44,7 +44,6 @@ class PoseParameters:
         t = np.array([0.0, 0.0, model.rest_root_height]) if root_translation is None else np.asarray(root_translation, float)
         return cls(np.zeros(model.n_dofs), R, t)
 
-
     def carried(self, source: BodyModel, model: BodyModel) -> PoseParameters:
         """This pose of `source` as a pose of `model`, joint angle by joint angle by DOF
         name; a DOF `source` lacks (a wrist, :meth:`BodyModel.with_wrists`) is 0."""

@@ -353,8 +353,8 @@ def with_hands(model: BodyModel, reach: float) -> BodyModel:
     """`model` with each hand (the vertices its forearm link, or its hand link where the
     hands turn at the wrists, carries most, beyond the wrist along the forearm) pulled
     toward the wrist to `reach` (0 < reach ≤ 1) of its length; the same skin weights and
-    joints. `model` itself for a reach of 1 or a model
-    without forearms and wrists. What tracking fits (``TrackerOptions.hand_reach``)."""
+    joints. `model` itself for a reach of 1 or a model without forearms and wrists. What
+    tracking fits (``TrackerOptions.hand_reach``)."""
     if not 0 < reach <= 1:
         raise OptionsError(f"hand reach must be in (0, 1], got {reach}")
     links = model.link_model

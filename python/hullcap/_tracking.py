@@ -210,10 +210,10 @@ class TrackerOptions:
             their length. A visual hull keeps the palm but loses spread fingers: a hand
             of full length then meets a fingerless hand in the hull, and the fit may
             slide the whole arm along its line to match them (measured with hands rigid
-            on the forearms, before `wrists`). The subject's model
-            itself keeps its whole hands: it is built with them (built with short ones,
-            the shape fit stretched the forearms to fill the hull's hands), saved with
-            them, and the silhouettes are guided by it. ``None`` (default): 0.6 with the
+            on the forearms, before `wrists`). The subject's model itself keeps its
+            whole hands: it is built with them (built with short ones, the shape fit
+            stretched the forearms to fill the hull's hands), saved with them, and the
+            silhouettes are guided by it. ``None`` (default): 0.6 with the
             sequence's own silhouettes, 1 (the whole hands) with silhouettes by
             background subtraction. With exact masks 0.6 made every development run as
             good or better (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms
