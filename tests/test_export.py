@@ -17,8 +17,9 @@ def rot(axis, deg):
     return R
 
 
-def forward_kinematics(mocap, frame):
-    """Joint positions from what the reader parsed: offsets, channels and the hierarchy."""
+def forward_kinematics(mocap, frame, ends=False):
+    """Joint positions from what the reader parsed: offsets, channels and the hierarchy;
+    with `ends`, the positions of the joints' End Sites instead."""
     world = {}
     for name in mocap.get_joints_names():
         parent = mocap.joint_parent(name)
@@ -34,6 +35,11 @@ def forward_kinematics(mocap, frame):
         else:
             Rp, tp = world[parent.name]
             world[name] = (Rp @ R, tp + Rp @ np.array(mocap.joint_offset(name)))
+    if ends:
+        sites = {name: [c for c in mocap.get_joint(name).children if c.value == ["End", "Site"]]
+                 for name in mocap.get_joints_names()}
+        return {n: world[n][1] + world[n][0] @ np.array([float(v) for v in site[0].children[0].value[1:]])
+                for n, site in sites.items() if site}
     return {n: t for n, (_, t) in world.items()}
 
 
@@ -64,6 +70,16 @@ def test_bvh_read_by_an_independent_parser_reproduces_the_joints(tmp_path, up, u
         theirs = forward_kinematics(mocap, f)
         for name, p in zip(model.joint_names, ours):
             assert np.linalg.norm(theirs[name] - scale * C @ p) < 1e-3 * scale, (f, name)
+    if wrists:  # each hand's bone ends at the hand's end, and turns with it
+        index = {name: i for i, name in enumerate(model.link_model.names)}
+        for f in range(frames):
+            posed = model.pose(theta[f], R[f], t[f])
+            tips = forward_kinematics(mocap, f, ends=True)
+            for side in "lr":
+                hand = index[f"{side}_hand"]
+                tip = posed.link_positions[hand] + posed.link_rotations[hand] @ (
+                    model.link_model.segments[hand, 1] - model.link_model.origins[hand])
+                assert np.linalg.norm(tips[f"{side}_wrist"] - scale * C @ tip) < 1e-3 * scale, (f, side)
     rest = forward_kinematics(mocap, 0)
     vertical = 1 if up == "y" else 2
     axis = np.argmax(np.abs(rest["head"] - rest["pelvis"]))

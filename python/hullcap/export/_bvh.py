@@ -2,8 +2,10 @@
 
 One BVH joint per canonical joint (docs/design.md §1), named as in ``joints.csv``. Joints at a
 link's centre of rotation carry that link's rotation relative to its parent; sites (chest,
-head, wrists, toes) are joints with rotation channels that stay zero, so that every
-canonical joint appears by name. Offsets come from the subject's model; the root carries
+head, toes, and the wrists of the paper's 29 DOF) are joints with rotation channels that stay
+zero, so that every canonical joint appears by name. A joint without children ends at its
+link's far end (a hand that turns at its wrist: to the hand's end, so that the bone a reader
+makes of it turns with the hand), a site where it is. Offsets come from the subject's model; the root carries
 its world position. Rotation channels are in the order ``Zrotation Xrotation Yrotation``
 (R = Rz·Rx·Ry, degrees).
 
@@ -82,10 +84,14 @@ def write_bvh(path, model, root_translation, root_rotation, theta, fps: float, *
     if units not in UNITS:
         raise OptionsError(f"BVH units must be one of {tuple(UNITS)}, got {units!r}")
     names, parents, offsets, carries = bvh_skeleton(model)
+    links = model.link_model
+    ends = np.array([links.segments[link, 1] - links.origins[link] if link >= 0 else np.zeros(3)
+                     for link in carries])
     local, root_position = local_motion(path, model, root_translation, root_rotation, theta)
     # The change of axes C maps every position p to C·p and every rotation R to C·R·Cᵀ.
     local = C @ local @ C.T
     offsets = UNITS[units] * offsets @ C.T
+    ends = UNITS[units] * ends @ C.T
     root_position = UNITS[units] * root_position @ C.T
     frames = len(local)
     angles = zxy_degrees(local)  # (F, L, 3)
@@ -116,7 +122,8 @@ def write_bvh(path, model, root_translation, root_rotation, theta, fps: float, *
         else:
             lines.append(f"{pad}  End Site")
             lines.append(f"{pad}  {{")
-            lines.append(f"{pad}    OFFSET 0.000000 0.000000 0.000000")
+            end = ends[i]
+            lines.append(f"{pad}    OFFSET {end[0]:.6f} {end[1]:.6f} {end[2]:.6f}")
             lines.append(f"{pad}  }}")
         lines.append(f"{pad}}}")
 
