@@ -2,12 +2,12 @@
 
 One BVH joint per canonical joint (docs/design.md §1), named as in ``joints.csv``. Joints at a
 link's centre of rotation carry that link's rotation relative to its parent; sites (chest,
-head, toes, and the wrists of the paper's 29 DOF) are joints with rotation channels that stay
-zero, so that every canonical joint appears by name. A joint without children ends at its
-link's far end (a hand that turns at its wrist: to the hand's end, so that the bone a reader
-makes of it turns with the hand), a site where it is. Offsets come from the subject's model; the root carries
-its world position. Rotation channels are in the order ``Zrotation Xrotation Yrotation``
-(R = Rz·Rx·Ry, degrees).
+head, toes, and the wrists of the paper's 29 DOF) are joints with rotation channels that
+stay zero, so that every canonical joint appears by name. A joint without children ends
+(its End Site) at its link's far end when it turns a link (a hand that turns at its wrist:
+the bone a reader makes of it turns with the hand), where it is when it is a site. Offsets
+come from the subject's model; the root carries its world position. Rotation channels are
+in the order ``Zrotation Xrotation Yrotation`` (R = Rz·Rx·Ry, degrees).
 
 By default the file is in the convention BVH readers assume (Blender's importer with its
 default settings, MotionBuilder, the CMU files): y up, our (x, y, z) written as
