@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hullcap._fitting import angles_by_name
+
 __all__ = ["Accuracy", "accuracy"]
 
 
@@ -39,10 +41,8 @@ def accuracy(result, sequence_path) -> Accuracy:
         names = tuple(str(n) for n in z["names"])
         true_joints = z["positions"]
     with np.load(truth_dir / "pose.npz") as z:
-        truth = dict(zip((str(n) for n in z["dof_names"]), z["theta"].T))
-    # A DOF the truth's model lacks (a wrist of BodyModel.with_wrists) is straight there.
-    straight = np.zeros(len(true_joints))
-    true_theta = np.stack([truth.get(n, straight) for n in result.model.dof_names], axis=1)
+        # A DOF the truth's model lacks (a wrist of BodyModel.with_wrists) is straight there.
+        true_theta = angles_by_name(z["theta"], [str(n) for n in z["dof_names"]], result.model.dof_names)
     n = len(result.failed)
     ok = ~result.failed
     index = [names.index(j) for j in result.model.joint_names]

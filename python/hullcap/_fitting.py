@@ -13,7 +13,8 @@ from hullcap._engine import FitOptions
 from hullcap._mesh import Surface
 from hullcap.errors import FitError
 
-__all__ = ["FitOptions", "FitResult", "PoseParameters", "PosePrior", "fit", "make_target", "quality", "yaw_rotation"]
+__all__ = ["FitOptions", "FitResult", "PoseParameters", "PosePrior", "angles_by_name", "fit", "make_target", "quality",
+           "yaw_rotation"]
 
 
 def yaw_rotation(angle: float) -> np.ndarray:
@@ -45,11 +46,21 @@ class PoseParameters:
         return cls(np.zeros(model.n_dofs), R, t)
 
     def carried(self, source: BodyModel, model: BodyModel) -> PoseParameters:
-        """This pose of `source` as a pose of `model`, joint angle by joint angle by DOF
-        name; a DOF `source` lacks (a wrist, :meth:`BodyModel.with_wrists`) is 0."""
-        index = {name: i for i, name in enumerate(source.dof_names)}
-        theta = np.array([self.theta[index[n]] if n in index else 0.0 for n in model.dof_names])
+        """This pose of `source` as a pose of `model` (:func:`angles_by_name`)."""
+        theta = angles_by_name(self.theta, source.dof_names, model.dof_names)
         return PoseParameters(theta, self.root_rotation, self.root_translation)
+
+
+def angles_by_name(theta, names, to_names) -> np.ndarray:
+    """Joint angles (…, D) in the DOF order `names`, in the order `to_names` instead, DOF
+    by DOF name; a DOF `names` lacks (a wrist, :meth:`BodyModel.with_wrists`) is 0."""
+    theta = np.asarray(theta, float)
+    index = {name: i for i, name in enumerate(names)}
+    out = np.zeros(theta.shape[:-1] + (len(to_names),))
+    for j, name in enumerate(to_names):
+        if name in index:
+            out[..., j] = theta[..., index[name]]
+    return out
 
 
 @dataclass(frozen=True)

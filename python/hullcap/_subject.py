@@ -370,7 +370,7 @@ def with_hands(model: BodyModel, reach: float) -> BodyModel:
         along = wrist - links.segments[forearm, 0]
         along = along / np.linalg.norm(along)
         beyond = (vertices - wrist) @ along
-        carriers = [forearm] + [links.names.index(n) for n in (f"{s}_hand",) if n in links.names]
+        carriers = [forearm] + ([links.names.index(f"{s}_hand")] if f"{s}_hand" in links.names else [])
         hand = np.isin(dominant, carriers) & (beyond > 0)
         vertices[hand] -= np.outer((1 - reach) * beyond[hand], along)
     b, k = model.skin_parameters
