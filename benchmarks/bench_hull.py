@@ -123,14 +123,16 @@ def devset_table(names, step: int) -> None:
         for i, cam in enumerate(seq.cameras):
             print(f"| {cam.name} | " + " | ".join(f"{np.mean(scores[m][i]):.3f} / {np.min(scores[m][i]):.3f}"
                                                for m in methods) + " |")
-        print("| all | " + " | ".join(f"**{np.mean(scores[m]):.3f}** / {np.min(scores[m]):.3f}" for m in methods) + " |")
+        print("| all | " + " | ".join(f"**{np.mean(scores[m]):.3f}** / {np.min(scores[m]):.3f}" for m in methods)
+              + " |")
         print("| ms per camera frame | " + " | ".join(f"{1000 * seconds[m] / n:.1f}" for m in methods) + " |")
 
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--frames", type=int, default=12, help="frames timed")
-    ap.add_argument("--devset", nargs="+", metavar="SEQUENCE", help="per-camera IoU table of these development sequences")
+    ap.add_argument("--devset", nargs="+", metavar="SEQUENCE",
+                    help="per-camera IoU table of these development sequences")
     ap.add_argument("--step", type=int, default=3, help="with --devset: every STEPth frame (default 3)")
     args = ap.parse_args()
     if args.devset:

@@ -53,7 +53,8 @@ def main() -> None:
     segments, groups = links.all_segments()
     print(f"# skin weights and posing of the template, {os.cpu_count()} cores, "
           f"{len(segments)} link segments ({len(links.names)} bones)\n")
-    print("| mesh | vertices | visibility (s) | graph (s) | Dijkstra (s) | SciPy Dijkstra (s) | ours vs SciPy | total skin_weights (s) |")
+    print("| mesh | vertices | visibility (s) | graph (s) | Dijkstra (s) | SciPy Dijkstra (s) | ours vs SciPy "
+          "| total skin_weights (s) |")
     print("|---|---|---|---|---|---|---|---|")
     meshes = {"template": None, "4× denser": make_template.VOXEL / 2}
     models = {}

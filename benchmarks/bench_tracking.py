@@ -111,7 +111,7 @@ def accuracy_tables(args) -> None:
     for r in rows:
         print(f"| {r[0]} | {r[1]} | {r[2]:.1f} | {r[3]:.1f} | {r[4]:.2f} | {r[5]} of {r[6]} | {r[7]:.1f} | "
               f"{r[8]:.1f} | {r[9]:.0f} | {r[10]:.0f} | {r[11]:.0f} |")
-    print("\n| joint | " + " | ".join(f"{s} / {l}" for s, l in joint_tables) + " |")
+    print("\n| joint | " + " | ".join(f"{s} / {label}" for s, label in joint_tables) + " |")
     print("|---|" + "---|" * len(joint_tables))
     for i, name in enumerate(names):
         print(f"| {name} | " + " | ".join(f"{t[i]:.1f}" for t in joint_tables.values()) + " |")

@@ -224,11 +224,13 @@ def experiment_hierarchy(rng, trials):
     hier_polish = run_sweep(model, cases, hierarchical=True, polish=True, rounds=6)
     simul = run_sweep(model, cases, hierarchical=False, iterations=60)
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
-    for rows, label, style in ((hier, "hierarchical (paper)", "o-"), (hier_polish, "hierarchical + joint polish (ours)", "^-"),
+    for rows, label, style in ((hier, "hierarchical (paper)", "o-"),
+                               (hier_polish, "hierarchical + joint polish (ours)", "^-"),
                                (simul, "simultaneous", "s--")):
         ax[0].plot(rows[:, 0], rows[:, 1] * 100, style, label=label)
         ax[1].plot(rows[:, 0], rows[:, 3] * 1000, style, label=label)
-    ax[0].set(xlabel="initial offset per joint (°)", ylabel=f"success rate (%) (mean joint error < {SUCCESS_MM:.0f} mm)",
+    ax[0].set(xlabel="initial offset per joint (°)",
+              ylabel=f"success rate (%) (mean joint error < {SUCCESS_MM:.0f} mm)",
               title="Hierarchical vs simultaneous fitting", ylim=(-5, 105))
     ax[1].set(xlabel="initial offset per joint (°)", ylabel="time per fit (ms)", title="Cost")
     for a in ax:
@@ -324,7 +326,8 @@ def main():
         "|---|---|---|---|---|---|",
     ]
     for s, d, r, cd, cr in two:
-        md.append(f"| {100 * s:.1f} | {d:.2f} | {r:.2f} | {r / max(d, 1e-9):.1f}× | {1000 * cd:.1f} | {1000 * cr:.1f} |")
+        md.append(f"| {100 * s:.1f} | {d:.2f} | {r:.2f} | {r / max(d, 1e-9):.1f}× | {1000 * cd:.1f} "
+                  f"| {1000 * cr:.1f} |")
     paper_noise = two[(two[:, 0] > 0) & (two[:, 0] <= 0.02)]
     ratio = float(np.mean(paper_noise[:, 2] / paper_noise[:, 1]))
     md += ["", f"At σ = 0.5–2 cm the rigid model's angle error is **{ratio:.1f}×** the deformable "
@@ -350,7 +353,8 @@ def main():
            "trials per offset.", "", "![hierarchy](paper_hierarchy.png)", "",
            "The first 20° trial fitted each way (shaded) over its target (red points), with its mean "
            "joint error:", "", "![hierarchy fits](paper_hierarchy_fit.png)", "",
-           "| offset (°) | hierarchical: success | iterations | ms | + polish: success | iterations | ms | simultaneous: success | iterations | ms |",
+           "| offset (°) | hierarchical: success | iterations | ms | + polish: success | iterations | ms "
+           "| simultaneous: success | iterations | ms |",
            "|---|---|---|---|---|---|---|---|---|---|"]
     for a, b, c in zip(hier, hier_polish, simul):
         md.append(f"| {a[0]:.0f} | {100 * a[1]:.0f} % | {a[2]:.0f} | {1000 * a[3]:.0f} | {100 * b[1]:.0f} % | "

@@ -126,7 +126,8 @@ def test_opencv_files_and_sizes_from_the_frames(tmp_path):
     rig = ring(4, width=320, height_px=240)
     files = []
     for cam in rig:
-        text = "%YAML:1.0\n---\n" + _matrix("camera_matrix", cam.K) + _matrix("distortion_coefficients", cam.dist[None]) \
+        text = "%YAML:1.0\n---\n" + _matrix("camera_matrix", cam.K) \
+            + _matrix("distortion_coefficients", cam.dist[None]) \
             + _matrix("rvec", _rodrigues(cam.R)[:, None]) + _matrix("tvec", cam.t[:, None])
         files.append(tmp_path / f"{cam.name}.yml")
         files[-1].write_text(text)

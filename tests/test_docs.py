@@ -1,6 +1,9 @@
-"""The documentation runs: the API tour executes, the CLI reference is current."""
+"""The documentation runs: the API tour executes, the CLI reference is current; and the
+code reads as the house writes it (its lint passes)."""
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
@@ -50,7 +53,8 @@ def _sources():
         path = ROOT / entry
         files = [path] if path.is_file() else path.rglob("*")
         for f in files:
-            if f.is_file() and f.suffix in (".md", ".py", ".rs", ".pyi", ".json", ".toml", "") and "devset" not in f.parts:
+            if f.is_file() and f.suffix in (".md", ".py", ".rs", ".pyi", ".json", ".toml", "") \
+                    and "devset" not in f.parts:
                 yield f
 
 
@@ -84,3 +88,11 @@ def test_the_public_surface_is_hullcap_errors_and_export():
         module = importlib.import_module(name)
         missing = [n for n in module.__all__ if not hasattr(module, n)]
         assert not missing, (name, missing)
+
+
+def test_the_python_code_passes_the_house_lint():
+    """ruff with the rules and line length of pyproject.toml, over every Python file of the
+    repository."""
+    run = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)], capture_output=True,
+                         text=True)
+    assert run.returncode == 0, run.stdout + run.stderr

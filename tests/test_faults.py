@@ -98,7 +98,8 @@ def test_a_camera_whose_images_all_have_another_size_is_refused_at_start(clean, 
     seq = copy(clean, tmp_path)
     for f in range(FRAMES):
         cv2.imwrite(str(frame_file(seq, "cam2", f)), np.full((150, 200, 3), 80, np.uint8))
-    with pytest.raises(SequenceError, match=r"cam2/000000.png: image is 200×150, camera 'cam2' is calibrated for 400×300"):
+    wrong = r"cam2/000000.png: image is 200×150, camera 'cam2' is calibrated for 400×300"
+    with pytest.raises(SequenceError, match=wrong):
         Tracker(Sequence(seq), options=FAST).run(tmp_path / "out", show_progress=False)
 
 

@@ -160,7 +160,8 @@ def build_parser() -> argparse.ArgumentParser:
     from hullcap._motions import MOTIONS
     from hullcap._synth import SUBJECTS
 
-    ap = argparse.ArgumentParser(prog="hullcap", description="Markerless motion capture from calibrated multi-view video.")
+    ap = argparse.ArgumentParser(prog="hullcap",
+                                 description="Markerless motion capture from calibrated multi-view video.")
     ap.add_argument("--version", action="version", version=f"hullcap {__version__}")
     sub = ap.add_subparsers(dest="command", required=True)
 
@@ -174,7 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--voxel", type=float, default=0.01, help="visual hull voxel size in metres (default 0.01)")
     t.add_argument("--background", choices=["statistical", "mog2"], default="statistical",
                    help="background subtraction when the sequence has no silhouettes (default statistical)")
-    t.add_argument("--ignore-silhouettes", action="store_true", help="subtract the background even if silhouettes/ exist")
+    t.add_argument("--ignore-silhouettes", action="store_true",
+                   help="subtract the background even if silhouettes/ exist")
     t.add_argument("--volume", type=_volume, metavar="X0,Y0,Z0,X1,Y1,Z1",
                    help="the capture volume to carve the hull in, metres (default: what every camera sees)")
     t.add_argument("--frames", type=int, help="track only the first N frames")
@@ -248,7 +250,8 @@ def build_parser() -> argparse.ArgumentParser:
     ci.add_argument("--out", required=True, help="the cameras.json to write")
     ci.add_argument("--size", metavar="WxH", help="image size of every camera, for files that do not store it")
     ci.add_argument("--images", metavar="FOLDER",
-                    help="take each camera's image size from one frame of FOLDER/frames/<cam>/ or FOLDER/videos/<cam>.*")
+                    help="take each camera's image size from one frame of FOLDER/frames/<cam>/ or "
+                         "FOLDER/videos/<cam>.*")
     ci.add_argument("--up", choices=["z", "y"], default="z", help="the up axis of the files' world (default z)")
     ci.set_defaults(run=_calib_import)
     cs = csub.add_parser("show", help="describe a cameras.json and draw the rig from above",

@@ -11,8 +11,8 @@ from typing import Literal, final
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize", "coverage", "FitOptions",
-           "Target", "fit", "Shape", "fit_shape", "evaluate", "threads"]
+__all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize",
+           "coverage", "FitOptions", "Target", "fit", "Shape", "fit_shape", "evaluate", "threads"]
 
 __version__: str
 

@@ -42,7 +42,8 @@ class PoseParameters:
         """The rest pose, standing on the floor (or at `root_translation`), turned by
         `yaw` radians about z (0 = facing −y)."""
         R = yaw_rotation(yaw)
-        t = np.array([0.0, 0.0, model.rest_root_height]) if root_translation is None else np.asarray(root_translation, float)
+        t = np.array([0.0, 0.0, model.rest_root_height]) if root_translation is None \
+            else np.asarray(root_translation, float)
         return cls(np.zeros(model.n_dofs), R, t)
 
     def carried(self, source: BodyModel, model: BodyModel) -> PoseParameters:

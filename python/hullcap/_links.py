@@ -105,8 +105,8 @@ class LinkModel:
         ]
         link_joint = dict(zip(self.joints, range(len(self.joints))))
         sites = [
-            {"name": n, "link": self.names[l], "position": p.tolist()}
-            for n, l, p in zip(self.joint_names, self.joint_links, self.joint_points)
+            {"name": n, "link": self.names[link], "position": p.tolist()}
+            for n, link, p in zip(self.joint_names, self.joint_links, self.joint_points)
             if n not in link_joint
         ]
         hierarchy = [sorted({self.joints[self.dof_links[d]] for d in g}, key=self.joints.index)
@@ -214,7 +214,8 @@ def _parse(spec: dict, source: str) -> LinkModel:
         except (TypeError, ValueError):
             fail(f"{where} must be numbers, got {value!r}")
         if a.shape != shape or not np.isfinite(a).all():
-            fail(f"{where} must be {len(shape) == 1 and f'{shape[0]} finite numbers' or f'shape {shape}'}, got {value!r}")
+            wanted = f"{shape[0]} finite numbers" if len(shape) == 1 else f"shape {shape}"
+            fail(f"{where} must be {wanted}, got {value!r}")
         return a
 
     if not isinstance(spec, dict) or not isinstance(spec.get("links"), list) or not spec["links"]:
@@ -301,7 +302,7 @@ def _parse(spec: dict, source: str) -> LinkModel:
             grouped.add(jn)
             dofs += np.flatnonzero(dof_links == joints.index(jn)).tolist()
         hierarchy.append(tuple(sorted(dofs)))
-    moving = {joints[l] for l in dof_links}
+    moving = {joints[link] for link in dof_links}
     if spec.get("hierarchy") and moving - grouped:
         fail(f"hierarchy leaves joints out: {sorted(moving - grouped)}")
     return LinkModel(
