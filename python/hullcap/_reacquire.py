@@ -87,10 +87,10 @@ class SearchOptions:
             the hull hardly tells the two apart (on six overhead frames of d03 from exact
             masks the tracked fit explained 0.8301 of the hull, the same arms with the
             clavicles at 20° and 40° 0.8233 and 0.8271, their joints nearer the truth:
-            27.7 and 26.6 mm against 28.2), so within that the rhythm decides. 0 keeps the start
-            only when it explains the hull better. The first seconds tracked to build
-            the subject's model use 0: their poses make the model, so each stands on the
-            hull alone.
+            27.7 and 26.6 mm against 28.2), so within that the rhythm decides. 0 keeps
+            the start only when it explains the hull better. The first seconds tracked to
+            build the subject's model use 0: their poses make the model, so each stands on
+            the hull alone.
     """
 
     headings: int = 8
