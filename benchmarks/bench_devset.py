@@ -9,8 +9,10 @@ the subject model's limb-length errors against the truth, the mean joint error o
 30 static calibration frames, MPJPE raw and offset-removed over the whole sequence,
 frames lost, frames re-acquired and frames/s. Each run's folder also gets ``frames.csv``:
 per frame the status, the fit's quality both ways and the true mean joint error.
+``--every K`` tracks every K-th frame only, the same motion filmed at 1/K of the frame
+rate: K times as far between frames for the prediction and the guided masks.
 
-    .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface]
+    .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface] [--every K]
 """
 
 from __future__ import annotations
@@ -43,9 +45,11 @@ class SurfaceTracker(Tracker):
         return self._surfaces(frame), self.masks(frame, None)
 
 
-def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions) -> dict:
-    seq_path = devset.render(devset_dir, name)
+def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions,
+        every: int = 1) -> dict:
+    seq_path = devset.subsampled(devset.render(devset_dir, name), every)
     seq = Sequence(seq_path)
+    name = seq_path.name
     truth = devset.Truth.load(devset_dir, seq_path)
     options = replace(options, use_silhouettes=mode != "colour")
     if mode == "surface":
@@ -60,7 +64,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     got = devset.model_limb_lengths(result.model)
     whole = devset.score(truth, result.model.joint_names, result.joints, result.failed)
     static = devset.score(truth, result.model.joint_names, result.joints, result.failed,
-                          slice(0, devset.CALIBRATION_FRAMES))
+                          slice(0, round(devset.CALIBRATION_SECONDS * seq.fps)))
     err = np.linalg.norm(result.joints[:, [result.model.joint_names.index(j) for j in truth.names]]
                          - truth.positions[:n], axis=2).mean(1)
     frames_csv = ["frame,status,inlier_fraction,coverage,quality,error_mm"] + [
@@ -96,6 +100,8 @@ def main():
     ap.add_argument("--only", nargs="+", help="these sequences only")
     ap.add_argument("--silhouettes", nargs="+", choices=["colour", "exact", "surface"], default=["colour"])
     ap.add_argument("--frames", type=int, help="track only the first N frames of each")
+    ap.add_argument("--every", type=int, default=1, metavar="K",
+                    help="track every K-th frame only (the motion at 1/K of the frame rate)")
     ap.add_argument("--out", default=str(devset.CACHE / "results"), help="where the runs are written")
     ap.add_argument("--json", help="also write the rows as JSON here")
     ap.add_argument("--no-refine-joints", dest="refine", action="store_false",
@@ -104,10 +110,12 @@ def main():
     devset_dir = devset.find(args.devset)
     if devset_dir is None:
         ap.error("the development set is not here: pass --devset or set HULLCAP_DEVSET")
+    if args.every < 1:
+        ap.error(f"--every must be 1 or more, got {args.every}")
     rows, options = [], TrackerOptions(refine_joints=args.refine)
     for name in args.only or devset.names(devset_dir):
         for mode in args.silhouettes:
-            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, options))
+            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, options, args.every))
             print(table(rows[-1:]).splitlines()[-1], flush=True)
     print("\n" + table(rows))
     print("\nper joint, raw (mm):")

@@ -27,7 +27,7 @@ CACHE = REPO / "data" / "devset"
 LIMBS = {"upper arm": ("shoulder", "elbow"), "forearm": ("elbow", "wrist"),
          "thigh": ("hip", "knee"), "shin": ("knee", "ankle")}
 """Limb lengths checked: the distance between two joints, both sides averaged."""
-CALIBRATION_FRAMES = 30
+CALIBRATION_SECONDS = 1.0
 """Every development sequence starts with 1 s of a static calibration pose."""
 
 
@@ -49,6 +49,45 @@ def render(devset: Path, name: str, cache: Path = CACHE) -> Path:
     if not (out / "meta.json").is_file():
         subprocess.run([sys.executable, str(devset / "render_packed.py"), "--out", str(cache), "--only", name],
                        check=True)
+    return out
+
+
+def subsampled(sequence: Path, every: int) -> Path:
+    """A sequence folder beside `sequence` holding every `every`-th of its frames, as a
+    camera filming the same motion at 1/`every` of its frame rate would give them: the
+    images (and silhouettes) as links to the originals, ``meta.json`` at the lower rate,
+    the ground truth (``gt/``) of the frames kept. Made once; `sequence` itself for 1."""
+    if every == 1:
+        return sequence
+    if every < 1:
+        raise ValueError(f"every must be a positive whole number, got {every}")
+    out = sequence.parent / f"{sequence.name}-every{every}"
+    if (out / "meta.json").is_file():
+        return out
+    meta = json.loads((sequence / "meta.json").read_text())
+    kept = range(0, int(meta["frames"]), every)
+    out.mkdir(parents=True, exist_ok=True)
+    for shared in ("cameras.json", "background", "gt/faces.npy"):
+        if (sequence / shared).exists():
+            (out / shared).parent.mkdir(parents=True, exist_ok=True)
+            (out / shared).unlink(missing_ok=True)
+            (out / shared).symlink_to((sequence / shared).resolve())
+    for kind in ("frames", "silhouettes"):
+        for cam in sorted(p for p in (sequence / kind).glob("*") if p.is_dir()):
+            (out / kind / cam.name).mkdir(parents=True, exist_ok=True)
+            for i, f in enumerate(kept):
+                (src,) = cam.glob(f"{f:06d}.*")
+                link = out / kind / cam.name / f"{i:06d}{src.suffix}"
+                link.unlink(missing_ok=True)
+                link.symlink_to(src.resolve())
+    if (sequence / "gt" / "joints.npz").is_file():
+        (out / "gt").mkdir(exist_ok=True)
+        with np.load(sequence / "gt" / "joints.npz") as z:
+            np.savez(out / "gt" / "joints.npz", **{k: z[k][::every] if k == "positions" else z[k] for k in z.files})
+    if (sequence / "gt" / "vertices.npy").is_file():
+        np.save(out / "gt" / "vertices.npy", np.load(sequence / "gt" / "vertices.npy", mmap_mode="r")[::every])
+    meta.update(fps=meta["fps"] / every, frames=len(kept))
+    (out / "meta.json").write_text(json.dumps(meta))  # last: it marks the folder complete
     return out
 
 

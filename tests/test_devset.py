@@ -1,13 +1,15 @@
-"""The development-set benchmark's path, on the first frames of its shortest sequence.
+"""The development-set benchmark's path, on the first frames of its shortest sequence, and
+its helpers.
 
 The set lives outside the repository (``benchmarks/devset.py`` says where it is looked
-for); without it these tests are skipped. Its full run is ``make bench``
+for); without it the tests that track it are skipped. Its full run is ``make bench``
 (docs/accuracy.md).
 """
 
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
@@ -16,10 +18,11 @@ import devset  # noqa: E402
 from hullcap._tracking import TrackerOptions  # noqa: E402
 
 WHERE = devset.find()
-pytestmark = pytest.mark.skipif(WHERE is None, reason="the development set is not on this machine "
-                                                      "(HULLCAP_DEVSET or ../shared/devset)")
+needs_the_set = pytest.mark.skipif(WHERE is None, reason="the development set is not on this machine "
+                                                         "(HULLCAP_DEVSET or ../shared/devset)")
 
 
+@needs_the_set
 @pytest.mark.parametrize("mode", ["colour", "surface"])
 def test_first_frames_of_a_development_sequence_are_tracked_near_the_truth(tmp_path, mode):
     row = bench_devset.run(WHERE, "d04_run_4cam", mode, tmp_path, 3, TrackerOptions(refine_joints=False))
@@ -31,3 +34,31 @@ def test_first_frames_of_a_development_sequence_are_tracked_near_the_truth(tmp_p
     assert all(abs(e) < 15 for e in row["limb_error_pct"].values()), row["limb_error_pct"]
     lines = (tmp_path / f"d04_run_4cam-{mode}" / "frames.csv").read_text().splitlines()
     assert len(lines) == 4 and lines[1].startswith("0,good,")
+
+
+def test_a_subsampled_sequence_keeps_every_kth_frame_and_its_truth(tmp_path):
+    seq = tmp_path / "walk"
+    (seq / "background").mkdir(parents=True)
+    (seq / "gt").mkdir()
+    (seq / "cameras.json").write_text("{}")
+    (seq / "meta.json").write_text('{"fps": 30, "frames": 7}')
+    for kind, ext in (("frames", ".jpg"), ("silhouettes", ".png")):
+        for cam in ("cam0", "cam1"):
+            (seq / kind / cam).mkdir(parents=True)
+            for f in range(7):
+                (seq / kind / cam / f"{f:06d}{ext}").write_text(f"{kind} {cam} {f}")
+    positions = np.arange(7 * 2 * 3, dtype=float).reshape(7, 2, 3)
+    np.savez(seq / "gt" / "joints.npz", names=np.array(["a", "b"]), positions=positions)
+
+    out = devset.subsampled(seq, 3)
+    assert devset.subsampled(seq, 3) == out and devset.subsampled(seq, 1) == seq
+    assert (out / "meta.json").read_text() == '{"fps": 10.0, "frames": 3}'
+    assert [p.read_text() for p in sorted((out / "frames" / "cam1").iterdir())] == \
+        ["frames cam1 0", "frames cam1 3", "frames cam1 6"]
+    assert (out / "silhouettes" / "cam0" / "000002.png").read_text() == "silhouettes cam0 6"
+    assert (out / "cameras.json").read_text() == "{}"
+    with np.load(out / "gt" / "joints.npz") as z:
+        np.testing.assert_array_equal(z["positions"], positions[::3])
+        assert list(z["names"]) == ["a", "b"]
+    with pytest.raises(ValueError, match="every"):
+        devset.subsampled(seq, 0)
