@@ -547,9 +547,33 @@ def test_the_priors_ramp_in_its_window_is_the_ramp_of_the_whole_region(rng):
         x, y, bw, bh = _box(prior)
         pad = int(rng.integers(0, 40))  # the region reaches the image's edge or stops short of it
         roi = (slice(max(0, y - pad), min(h, y + bh + pad)), slice(max(0, x - pad), min(w, x + bw + pad)))
-        band = max(1.0, rng.uniform(0.5, 12))
-        whole = np.clip(signed_distance(prior[roi]) / band, -1.0, 1.0)
-        assert np.array_equal(_ramp(prior, (x, y, bw, bh), roi, band), whole)
+        band, outer = max(1.0, rng.uniform(0.5, 12)), max(1.0, rng.uniform(0.5, 36))
+        d = signed_distance(prior[roi])
+        whole = np.clip(d / np.where(d > 0, np.float32(band), np.float32(outer)), -1.0, 1.0)
+        assert np.array_equal(_ramp(prior, (x, y, bw, bh), roi, band, outer), whole)
+
+
+def test_the_guided_band_widens_with_the_time_between_frames(tmp_path):
+    from hullcap._guided import GuidedOptions
+    from hullcap._tracking import Tracker
+
+    options = GuidedOptions()
+    assert options.outer == options.band
+    slow = options.for_frame_rate(10)
+    assert (slow.band, slow.outer) == (options.band, pytest.approx(3 * options.band))
+    assert options.for_frame_rate(30) is options and options.for_frame_rate(60) is options
+    for bad in (0.0, -5.0, float("nan")):
+        with pytest.raises(ValueError, match="frame rate"):
+            options.for_frame_rate(bad)
+    for bad in ({"band_frame_rate": 0.0}, {"outer_band": -0.01}):
+        with pytest.raises(ValueError, match="band_frame_rate"):
+            GuidedOptions(**bad)
+    # A sequence filmed at 12 frames/s is segmented, and its hull's tolerance bounded,
+    # with the outer band widened by 30 / 12.
+    seq = synthesize(tmp_path / "seq", "squat", 4, fps=12.0, frames=2, width=160, height=120, show_progress=False)
+    tracker = Tracker(Sequence(seq))
+    assert tracker._guidance.outer == pytest.approx(2.5 * options.band)
+    assert all(s.options is tracker._guidance for s in tracker._segmenters())
 
 
 @pytest.mark.parametrize("scene_share", [0.0, 0.5])

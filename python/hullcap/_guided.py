@@ -32,7 +32,7 @@ colour differs from the background.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -58,7 +58,19 @@ class GuidedOptions:
             (docs/accuracy.md).
         band: half-width of the band over which the prior goes from 0 at the predicted
             outline to full, as a fraction of the person's image height (0.04: 10 px at
-            250 px tall, about a frame's prediction error of a limb).
+            250 px tall, about a frame's prediction error of a limb at `band_frame_rate`).
+        outer_band: the same outside the predicted outline (``None``: `band`), where a
+            limb that moved further than predicted lies.
+        band_frame_rate: the frame rate (frames/s) the bands hold for. The prediction is
+            off by more the longer the time between frames, so at a lower rate the outer
+            band widens in proportion to that time (:meth:`for_frame_rate`): a limb
+            beyond the prediction is then held back less. The inner band stays, so that a
+            thin limb the prediction has keeps its full prior (trousers the colour of the
+            floor are held by nothing else; widening both lost d01's last frames at 15
+            frames/s). With the bands of 30 frames/s, the development set tracked from
+            every third frame (10 frames/s) lost 36 of d01's 65 frames and folded a
+            forearm of d02 for good; with the outer band widened, 1 frame, and 30.5
+            against 40.2 mm (docs/accuracy.md, "Fewer frames a second").
         background_weight: weight of the statistical test's evidence for the background
             (negative evidence, at most 3 spreads) against its evidence for the subject.
         colour_weight: weight of the colour log-ratio (clipped to ±4).
@@ -100,6 +112,8 @@ class GuidedOptions:
 
     prior: float = 2.0
     band: float = 0.04
+    outer_band: float | None = None
+    band_frame_rate: float = 30.0
     background_weight: float = 0.3
     colour_weight: float = 1.0
     bins: int = 16
@@ -116,6 +130,9 @@ class GuidedOptions:
     texture_hidden: float = 0.5
 
     def __post_init__(self):
+        if not (self.band > 0 and self.band_frame_rate > 0 and (self.outer_band is None or self.outer_band > 0)):
+            raise OptionsError(f"GuidedOptions: band, outer_band and band_frame_rate must be positive, got "
+                               f"{self.band}, {self.outer_band} and {self.band_frame_rate}")
         if not 0 <= self.scene_share < 1:  # the band's colours always count: a scene lacks some
             raise OptionsError(f"GuidedOptions.scene_share must lie in [0, 1), got {self.scene_share}")
         if not (self.texture_weight >= 0 and self.texture_min_std >= 0):
@@ -125,6 +142,20 @@ class GuidedOptions:
         if not -1 <= self.texture_hidden < self.texture_seen <= 1:
             raise OptionsError("GuidedOptions: need -1 <= texture_hidden < texture_seen <= 1 (correlations), got "
                                f"{self.texture_hidden} and {self.texture_seen}")
+
+    @property
+    def outer(self) -> float:
+        """The band outside the predicted outline."""
+        return self.band if self.outer_band is None else self.outer_band
+
+    def for_frame_rate(self, fps: float) -> GuidedOptions:
+        """These options for frames `fps` a second: the outer band widened by
+        ``band_frame_rate / fps`` when that is more than 1, unchanged otherwise."""
+        if not fps > 0:
+            raise OptionsError(f"a frame rate must be positive, got {fps}")
+        if fps >= self.band_frame_rate:
+            return self
+        return replace(self, outer_band=self.outer * self.band_frame_rate / fps)
 
 
 class ColourModel:
@@ -249,7 +280,8 @@ class GuidedSegmenter:
         x0, x1 = max(0, x - pad), min(image.shape[1], x + w + pad)
         roi = (slice(y0, y1), slice(x0, x1))
         ev = np.clip(evidence[roi], -3.0, FOREGROUND_EVIDENCE)
-        logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * _ramp(prior, box, roi, max(1.0, o.band * h))
+        ramp = _ramp(prior, box, roi, max(1.0, o.band * h), max(1.0, o.outer * h))
+        logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * ramp
         if o.colour_weight:
             logit += o.colour_weight * np.clip(self.colours.log_ratio(image[roi]), -4.0, 4.0)
         if self.texture is not None:
@@ -262,20 +294,21 @@ class GuidedSegmenter:
         return half_covered(clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area)), distortion)
 
 
-def _ramp(prior: np.ndarray, box, roi, band: float) -> np.ndarray:
+def _ramp(prior: np.ndarray, box, roi, band: float, outer: float) -> np.ndarray:
     """Over `roi`, the signed distance to the outline of `prior` (bool, bounding `box`)
-    divided by `band` and clipped to ±1. Only pixels within `band` of the outline fall
-    between, and they lie in the box grown by `band`: the distance transform runs in
-    that window (with a margin) alone, where it gives the values of the whole region
-    (a shortest chamfer path stays within the box of its two ends, and a ring of outside
-    pixels surrounds the prior in the window)."""
+    divided by `band` inside it and by `outer` outside, clipped to ±1. Only pixels within
+    those bands of the outline fall between, and they lie in the box grown by the larger:
+    the distance transform runs in that window (with a margin) alone, where it gives the
+    values of the whole region (a shortest chamfer path stays within the box of its two
+    ends, and a ring of outside pixels surrounds the prior in the window)."""
     x, y, w, h = box
     (y0, y1), (x0, x1) = (roi[0].start, roi[0].stop), (roi[1].start, roi[1].stop)
-    m = int(np.ceil(band)) + 2
+    m = int(np.ceil(max(band, outer))) + 2
     wy0, wy1, wx0, wx1 = max(y0, y - m), min(y1, y + h + m), max(x0, x - m), min(x1, x + w + m)
     out = np.full((y1 - y0, x1 - x0), -1.0, np.float32)
     d = signed_distance(prior[wy0:wy1, wx0:wx1])
-    out[wy0 - y0:wy1 - y0, wx0 - x0:wx1 - x0] = np.clip(d / band, -1.0, 1.0)
+    scale = np.where(d > 0, np.float32(band), np.float32(outer))
+    out[wy0 - y0:wy1 - y0, wx0 - x0:wx1 - x0] = np.clip(d / scale, -1.0, 1.0)
     return out
 
 

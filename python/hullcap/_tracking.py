@@ -82,11 +82,13 @@ class TrackerOptions:
         guided: with statistical background subtraction, guide each frame's silhouettes by
             the model at its predicted pose and by the subject's colours
             (:mod:`hullcap._guided`); the statistical test alone otherwise.
-        guidance: the guided silhouettes' options.
+        guidance: the guided silhouettes' options (their outer band widened for the
+            sequence's frame rate, :meth:`GuidedOptions.for_frame_rate`).
         hull_tolerance: views that may leave a voxel out and be overruled by the others
             (:func:`hullcap.visual_hull`): within the predicted model's silhouettes, dilated
-            by ``guidance.band``, while tracking; anywhere in the first frame, which has no
-            prediction yet (its hull is then a little larger where one view alone carved).
+            by the guided silhouettes' outer band, while tracking; anywhere in the first frame,
+            which has no prediction yet (its hull is then a little larger where one view
+            alone carved).
             ``None``: 1 for silhouettes by background subtraction, which may miss a part in
             one view, 0 for the sequence's own silhouettes, which are taken as they are
             (every view overruled adds phantom volume to the hull).
@@ -302,6 +304,7 @@ class Tracker:
             bounds = capture_volume(sequence.cameras)
         self.bounds = check_bounds(bounds)
         """``(lo, hi)``: the capture volume the hull is carved in (metres)."""
+        self._guidance = self.options.guidance.for_frame_rate(sequence.fps)
         self._backgrounds = None
         self._guided = None
         self._broken: set = set()  # (frame, camera) of views already left out
@@ -397,7 +400,7 @@ class Tracker:
             self._backgrounds = [background_model(seq.background(i), self.options.background)
                                  for i in range(len(seq.cameras))]
             if self.options.guided and self.options.background == "statistical":
-                self._guided = [GuidedSegmenter(b, self.options.guidance) for b in self._backgrounds]
+                self._guided = [GuidedSegmenter(b, self._guidance) for b in self._backgrounds]
         return self._guided
 
     def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
@@ -440,7 +443,7 @@ class Tracker:
         t0 = time.perf_counter()
         report = HullReport()
         priors = None if silhouettes is None or tolerance == 0 else \
-            over_views(lambda s: dilated(s, self.options.guidance.band), silhouettes)
+            over_views(lambda s: dilated(s, self._guidance.outer), silhouettes)
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
