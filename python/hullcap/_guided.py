@@ -20,7 +20,8 @@ the person gets the log-odds that it is the subject from these sources, added:
   low where something covers it, whatever that something's colour (:class:`TextureTest`);
 - the prior: ± `prior` deep inside or far outside the predicted silhouette, rising
   linearly across a band around its outline whose width is a fraction of the person's
-  height in the image (the prediction is off by about that much).
+  height in the image (the prediction is off by about that much; outside the outline the
+  band widens at frame rates under 30 a second, where it is off by more).
 
 The sum, smoothed over a pixel or two (neighbours agree), decides; the mask is then
 cleaned as a silhouette should be (:func:`clean_mask`, sizes scaled with the person's

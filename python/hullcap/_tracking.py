@@ -85,10 +85,10 @@ class TrackerOptions:
         guidance: the guided silhouettes' options (their outer band widened for the
             sequence's frame rate, :meth:`GuidedOptions.for_frame_rate`).
         hull_tolerance: views that may leave a voxel out and be overruled by the others
-            (:func:`hullcap.visual_hull`): within the predicted model's silhouettes, dilated
-            by the guided silhouettes' outer band, while tracking; anywhere in the first frame,
-            which has no prediction yet (its hull is then a little larger where one view
-            alone carved).
+            (:func:`hullcap.visual_hull`): within the predicted model's silhouettes,
+            dilated by the guided silhouettes' outer band, while tracking; anywhere in the
+            first frame, which has no prediction yet (its hull is then a little larger
+            where one view alone carved).
             ``None``: 1 for silhouettes by background subtraction, which may miss a part in
             one view, 0 for the sequence's own silhouettes, which are taken as they are
             (every view overruled adds phantom volume to the hull).
