@@ -49,7 +49,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
         every: int = 1) -> dict:
     seq_path = devset.subsampled(devset.render(devset_dir, name), every)
     seq = Sequence(seq_path)
-    name = seq_path.name
+    run_dir = out / f"{seq_path.name}-{mode}"  # d01_bend-colour, d01_bend-every3-colour
     truth = devset.Truth.load(devset_dir, seq_path)
     options = replace(options, use_silhouettes=mode != "colour")
     if mode == "surface":
@@ -57,7 +57,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     else:
         tracker = Tracker(seq, options=options)
     t0 = time.perf_counter()
-    result = tracker.run(out / f"{name}-{mode}", resume=False, show_progress=True, frames=frames)
+    result = tracker.run(run_dir, resume=False, show_progress=True, frames=frames)
     seconds = time.perf_counter() - t0
     n = len(result.failed)
     want = truth.limb_lengths()
@@ -70,8 +70,8 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     frames_csv = ["frame,status,inlier_fraction,coverage,quality,error_mm"] + [
         f"{f},{STATUS_NAMES[result.status[f]]},{result.inlier_fraction[f]:.4f},{result.coverage[f]:.4f},"
         f"{result.quality[f]:.4f},{1000 * err[f]:.1f}" for f in range(n)]
-    (out / f"{name}-{mode}" / "frames.csv").write_text("\n".join(frames_csv) + "\n")
-    return {"sequence": name, "silhouettes": mode, "cameras": len(seq.cameras), "frames": n,
+    (run_dir / "frames.csv").write_text("\n".join(frames_csv) + "\n")
+    return {"sequence": seq_path.name, "silhouettes": mode, "cameras": len(seq.cameras), "frames": n,
             "limb_error_pct": {k: 100 * (got[k] - want[k]) / want[k] for k in want},
             "static_mm": static.mpjpe_mm, "mpjpe_mm": whole.mpjpe_mm,
             "mpjpe_offset_removed_mm": whole.mpjpe_offset_removed_mm, "lost": whole.lost,

@@ -551,6 +551,7 @@ def test_the_priors_ramp_in_its_window_is_the_ramp_of_the_whole_region(rng):
         d = signed_distance(prior[roi])
         whole = np.clip(d / np.where(d > 0, np.float32(band), np.float32(outer)), -1.0, 1.0)
         assert np.array_equal(_ramp(prior, (x, y, bw, bh), roi, band, outer), whole)
+        assert np.array_equal(_ramp(prior, (x, y, bw, bh), roi, band, band), np.clip(d / band, -1.0, 1.0))
 
 
 def test_the_guided_band_widens_with_the_time_between_frames(tmp_path):

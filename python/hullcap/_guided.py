@@ -308,7 +308,7 @@ def _ramp(prior: np.ndarray, box, roi, band: float, outer: float) -> np.ndarray:
     wy0, wy1, wx0, wx1 = max(y0, y - m), min(y1, y + h + m), max(x0, x - m), min(x1, x + w + m)
     out = np.full((y1 - y0, x1 - x0), -1.0, np.float32)
     d = signed_distance(prior[wy0:wy1, wx0:wx1])
-    scale = np.where(d > 0, np.float32(band), np.float32(outer))
+    scale = np.float32(band) if outer == band else np.where(d > 0, np.float32(band), np.float32(outer))
     out[wy0 - y0:wy1 - y0, wx0 - x0:wx1 - x0] = np.clip(d / scale, -1.0, 1.0)
     return out
 
