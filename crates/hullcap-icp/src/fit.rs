@@ -1,7 +1,7 @@
 //! The fitting loop: IRLS iterations of Levenberg–Marquardt or conjugate-gradient steps,
 //! scheduled hierarchically or all at once.
 
-use crate::normal_equations::{Correspondences, Problem, robust_sigma};
+use crate::normal_equations::{Correspondences, Hints, Problem, robust_sigma};
 use crate::solve::levenberg_marquardt;
 use crate::variants::{evaluate_variants, moving_vertices};
 use crate::{FitOptions, IcpError, PosePrior, Solver, Target};
@@ -114,6 +114,7 @@ pub fn fit_with_prior(
             prior,
             iterations: 0,
             kept: None,
+            hints: Hints::default(),
         };
         let coarse = options.hierarchical && options.coarse > 1;
         let (coarse_points, coarse_options): (Vec<u32>, FitOptions);
@@ -155,7 +156,9 @@ pub fn fit_with_prior(
         }
         let (mut fine, coarse_iterations) = if coarse {
             last = None; // the statistics are those of every point
-            (fitter(model_points, options), staged.iterations)
+            let mut fine = fitter(model_points, options);
+            fine.hints = std::mem::take(&mut staged.hints);
+            (fine, staged.iterations)
         } else {
             (staged, 0)
         };
@@ -240,7 +243,14 @@ pub(crate) fn evaluate(
         threads,
     };
     let pose = rig.skeleton().forward(&params.theta)?;
-    let found = problem.correspond(&pose, &params.root, model_points, options, true)?;
+    let found = problem.correspond(
+        &pose,
+        &params.root,
+        model_points,
+        options,
+        true,
+        &mut Hints::default(),
+    )?;
     let sigma = robust_sigma(&found.forward, options.sigma_min);
     statistics(
         &problem,
@@ -344,6 +354,8 @@ struct Fitter<'a> {
     /// stopped: after a round's evaluation, or after a stage whose last step found no
     /// lower energy. Those pairs are then the same to the last bit and are not sought again.
     kept: Option<(Params, Linearised)>,
+    /// The last searches' answers, which make the next ones faster.
+    hints: Hints,
 }
 
 impl Fitter<'_> {
@@ -386,6 +398,7 @@ impl Fitter<'_> {
             self.model_points,
             self.options,
             self.options.reverse_weight > 0.0,
+            &mut self.hints,
         )?;
         let sigma = robust_sigma(&found.forward, self.options.sigma_min);
         Ok((pose, found, sigma))

@@ -21,7 +21,7 @@ pub(crate) type PosedPoints = (Vec<[f64; 3]>, Vec<[f64; 3]>);
 
 /// A model vertex, its partner on the target, the pair's weight in the energy and what
 /// its residual measures.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Pair {
     pub vertex: u32,
     pub target: u32,
@@ -30,7 +30,7 @@ pub(crate) struct Pair {
 }
 
 /// The pairs of one pose, both directions, with their distances.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub(crate) struct Correspondences {
     pub pairs: Vec<Pair>,
     /// Distance of each model→hull pair (the first `forward.len()` of `pairs`).
@@ -39,6 +39,43 @@ pub(crate) struct Correspondences {
     pub reverse: Vec<f64>,
     /// For each hull sample, the link its nearest model vertex (gated or not) is bound to.
     pub reverse_links: Vec<u32>,
+}
+
+/// Each query's answer at the last search of a fit, as hints for the next
+/// ([`NormalKdTree::query_hinted`]): between iterations the model moves little, and a
+/// search bounded from the start by the last partner's distance skips most of the tree.
+/// The pairs are the same with hints or without.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Hints {
+    /// Per model vertex of the rig: the target point that was its nearest key, −1 for none.
+    forward: Vec<i64>,
+    /// Per hull sample: its nearest posed vertex (an index into the evenly spread
+    /// vertices), −1 for none.
+    reverse: Vec<i64>,
+    /// The numbers of samples and of spread vertices the reverse hints are for.
+    reverse_shape: (usize, usize),
+}
+
+impl Hints {
+    /// The forward hints of `model_points` (the rig has `n_vertices`).
+    fn forward_of(&mut self, model_points: &[u32], n_vertices: usize) -> Vec<i64> {
+        if self.forward.len() != n_vertices {
+            self.forward = vec![-1; n_vertices];
+        }
+        model_points
+            .iter()
+            .map(|&v| self.forward[v as usize])
+            .collect()
+    }
+
+    /// The reverse hints of `samples` hull samples against `vertices` spread vertices.
+    fn reverse_of(&mut self, samples: usize, vertices: usize) -> &[i64] {
+        if self.reverse_shape != (samples, vertices) {
+            self.reverse = vec![-1; samples];
+            self.reverse_shape = (samples, vertices);
+        }
+        &self.reverse
+    }
 }
 
 impl Correspondences {
@@ -230,7 +267,8 @@ impl Problem<'_> {
 
     /// The gated pairs of the model points posed at (`pose`, `root`): each model point's
     /// nearest target key, then (with `reverse`) each hull sample's nearest posed model
-    /// vertex (of an even subset), weighted by `options.reverse_weight`.
+    /// vertex (of an even subset), weighted by `options.reverse_weight`. `hints`: the
+    /// answers of the last call, which speed the searches up and are updated.
     pub(crate) fn correspond(
         &self,
         pose: &SkeletonPose,
@@ -238,24 +276,34 @@ impl Problem<'_> {
         model_points: &[u32],
         options: &FitOptions,
         reverse: bool,
+        hints: &mut Hints,
     ) -> Result<Correspondences, IcpError> {
         let (points, normals) = self.posed_points(pose, root, model_points)?;
-        let found = self
-            .target
-            .tree
-            .query(&points, &normals, &options.gate, Some(self.threads))?;
+        let n_vertices = self.rig.n_vertices();
+        let found = self.target.tree.query_hinted(
+            &points,
+            &normals,
+            &options.gate,
+            &hints.forward_of(model_points, n_vertices),
+            Some(self.threads),
+        )?;
+        for (&v, nb) in model_points.iter().zip(&found) {
+            hints.forward[v as usize] = nb.index;
+        }
         let mut out = self.forward_pairs(model_points, &points, &found);
         if reverse {
-            let every = spread(self.rig.n_vertices(), options.reverse_vertices);
+            let every = spread(n_vertices, options.reverse_vertices);
             let vertices = self.posed_points(pose, root, &every)?;
             let samples = self.target.samples(options.reverse_points);
             let (sp, sn) = self.sample_keys(&samples);
-            let found = self.vertex_tree(&vertices)?.query(
+            let found = self.vertex_tree(&vertices)?.query_hinted(
                 &sp,
                 &sn,
                 &Gate::default(),
+                hints.reverse_of(samples.len(), every.len()),
                 Some(self.threads),
             )?;
+            hints.reverse = found.iter().map(|nb| nb.index).collect();
             self.add_reverse_pairs(
                 &mut out,
                 &every,
@@ -472,6 +520,79 @@ mod tests {
     use crate::Params;
     use crate::testing::{root, target_at, tube};
 
+    /// Hints from the searches at one pose leave the pairs at the next pose as they are
+    /// without hints, and the hints follow the answers; hints of another sampling are
+    /// dropped.
+    #[test]
+    fn hints_leave_the_pairs_as_they_are() {
+        let rig = tube();
+        let truth = Params {
+            root: root([0.1, -0.2, 0.3], [0.5, 0.0, 1.0]),
+            theta: vec![0.4, -0.2, 0.6],
+        };
+        let target = target_at(&rig, &truth);
+        let problem = Problem {
+            rig: &rig,
+            target: &target,
+            kind: Residual::PointToPlane,
+            threads: 2,
+        };
+        let options = FitOptions {
+            gate: Gate {
+                max_distance: 0.05,
+                max_angle: 1.0,
+            },
+            reverse_weight: 1.0,
+            reverse_points: 300,
+            ..FitOptions::default()
+        };
+        let points: Vec<u32> = (0..rig.n_vertices() as u32).step_by(2).collect();
+        let mut hints = Hints::default();
+        let mut at = truth.clone();
+        for step in 0..4 {
+            at.theta[step % 3] += 0.03;
+            at.root.translation.x += 0.004;
+            let pose = rig.skeleton().forward(&at.theta).unwrap();
+            let cold = problem
+                .correspond(
+                    &pose,
+                    &at.root,
+                    &points,
+                    &options,
+                    true,
+                    &mut Hints::default(),
+                )
+                .unwrap();
+            let warm = problem
+                .correspond(&pose, &at.root, &points, &options, true, &mut hints)
+                .unwrap();
+            assert_eq!(warm, cold, "step {step}");
+            assert!(hints.forward.iter().any(|&h| h >= 0));
+            assert_eq!(hints.reverse.len(), target.samples(300).len());
+        }
+        let coarser = FitOptions {
+            reverse_points: 150,
+            ..options
+        };
+        let pose = rig.skeleton().forward(&at.theta).unwrap();
+        let cold = problem
+            .correspond(
+                &pose,
+                &at.root,
+                &points,
+                &coarser,
+                true,
+                &mut Hints::default(),
+            )
+            .unwrap();
+        let warm = problem
+            .correspond(&pose, &at.root, &points, &coarser, true, &mut hints)
+            .unwrap();
+        assert_eq!(warm, cold);
+        assert_eq!(hints.reverse.len(), target.samples(150).len());
+        assert_ne!(target.samples(150).len(), target.samples(300).len());
+    }
+
     /// The gradient JᵀWr is dE/dp of the robust energy for fixed pairs (both directions),
     /// and JᵀWJ is symmetric: checked against central differences of `energy`.
     #[test]
@@ -509,7 +630,14 @@ mod tests {
                 ..FitOptions::default()
             };
             let found = problem
-                .correspond(&pose, &at.root, &points, &options, reverse_weight > 0.0)
+                .correspond(
+                    &pose,
+                    &at.root,
+                    &points,
+                    &options,
+                    reverse_weight > 0.0,
+                    &mut Hints::default(),
+                )
                 .unwrap();
             assert_eq!(found.reverse.is_empty(), reverse_weight == 0.0);
             let sigma = robust_sigma(&found.forward, 0.004);

@@ -13,7 +13,7 @@
 //! does see a proportion outweighs it. Each iteration takes new correspondences in every
 //! frame and one Levenberg–Marquardt step on all parameters: the shape and every pose.
 
-use crate::normal_equations::{Problem, ShapeColumns, robust_sigma};
+use crate::normal_equations::{Hints, Problem, ShapeColumns, robust_sigma};
 use crate::solve::levenberg_marquardt;
 use crate::{FitOptions, FitStats, IcpError, Params, Target};
 use hullcap_body::Shape;
@@ -109,6 +109,7 @@ pub fn fit_shape(
         };
         let mut damping = 1e-3;
         let mut iterations = 0;
+        let mut hints = vec![Hints::default(); frames.len()];
         for _ in 0..options.iterations {
             iterations += 1;
             let rig = shape.rig(&s)?;
@@ -125,8 +126,14 @@ pub fn fit_shape(
                     threads,
                 };
                 let pose = rig.skeleton().forward(&params.theta)?;
-                let found =
-                    problem.correspond(&pose, &params.root, model_points, options, reverse)?;
+                let found = problem.correspond(
+                    &pose,
+                    &params.root,
+                    model_points,
+                    options,
+                    reverse,
+                    &mut hints[f],
+                )?;
                 let sigma = robust_sigma(&found.forward, options.sigma_min);
                 let d_pose = shape.pose_derivatives(&pose);
                 let columns = ShapeColumns {

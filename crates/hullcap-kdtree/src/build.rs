@@ -63,6 +63,8 @@ pub struct NormalKdTree {
     pub(crate) keys: Vec<Key>,
     /// `order[k]` = the caller's index of `keys[k]`.
     pub(crate) order: Vec<u32>,
+    /// `slot[i]` = where the caller's key `i` lies in `keys` (the inverse of `order`).
+    pub(crate) slot: Vec<u32>,
     pub(crate) lambda: f64,
     leaf_size: usize,
 }
@@ -113,10 +115,15 @@ impl NormalKdTree {
         let threads = hullcap_core::resolve_threads(options.threads);
         split(&keys, &mut order, 0, &mut nodes, options.leaf_size, threads)?;
         let keys = order.iter().map(|&i| keys[i as usize]).collect();
+        let mut slot = vec![0u32; order.len()];
+        for (k, &i) in order.iter().enumerate() {
+            slot[i as usize] = k as u32;
+        }
         Ok(NormalKdTree {
             nodes,
             keys,
             order,
+            slot,
             lambda,
             leaf_size: options.leaf_size,
         })
@@ -270,6 +277,10 @@ mod tests {
             seen[i as usize] = true;
         }
         assert!(seen.iter().all(|&s| s));
+        // `slot` finds each caller's key in leaf order.
+        for (i, &k) in tree.slot.iter().enumerate() {
+            assert_eq!(tree.order[k as usize] as usize, i);
+        }
         for node in tree.nodes.iter().filter(|n| n.is_leaf()) {
             assert!(node.b > node.a && (node.b - node.a) as usize <= 7);
         }

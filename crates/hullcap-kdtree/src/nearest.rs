@@ -4,7 +4,7 @@ use crate::KdTreeError;
 use crate::build::NormalKdTree;
 use crate::descend::Candidates;
 use crate::gate::{Gate, PreparedGate};
-use crate::keys::Key;
+use crate::keys::{Key, dist2};
 
 /// The answer for one query.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -57,6 +57,68 @@ impl NormalKdTree {
         )
     }
 
+    /// [`NormalKdTree::query`] with a hint per query: the caller's index of a key that is
+    /// probably near it (the query's answer at the last iteration of a fit whose points
+    /// moved a little since), or −1 for none. The answers are `query`'s (the nearest key,
+    /// gated): a hint only sets the search's first bound, the distance to the hinted key,
+    /// which spares the descent the cells that cannot hold a nearer key. Where another
+    /// key lies at exactly the hinted key's distance, the hinted one is returned.
+    ///
+    /// # Errors
+    /// As [`NormalKdTree::query`]; [`KdTreeError::LengthMismatch`] when `hints` does not
+    /// have one entry per query and [`KdTreeError::BadParameter`] for a hint that is not
+    /// −1 or the index of a key.
+    pub fn query_hinted(
+        &self,
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        gate: &Gate,
+        hints: &[i64],
+        threads: Option<usize>,
+    ) -> Result<Vec<Neighbor>, KdTreeError> {
+        if hints.len() != points.len() {
+            return Err(KdTreeError::LengthMismatch {
+                array: "hints",
+                got: hints.len(),
+                expected_from: "query points",
+                expected: points.len(),
+            });
+        }
+        if let Some(&bad) = hints
+            .iter()
+            .find(|&&h| h < -1 || h >= self.keys.len() as i64)
+        {
+            return Err(KdTreeError::BadParameter {
+                name: "hints",
+                requirement: "-1 or the index of a key of the tree",
+                value: bad as f64,
+            });
+        }
+        let threads = hullcap_core::resolve_threads(threads);
+        let (queries, gate) = self.batch_queries(points, normals, gate, threads)?;
+        self.answer_batch(
+            &queries,
+            1,
+            threads,
+            || (),
+            |_, i, q, row| {
+                let mut best = Best {
+                    dist2: gate.radius2,
+                    slot: u32::MAX,
+                };
+                if hints[i] >= 0 {
+                    let slot = self.slot[hints[i] as usize];
+                    let d2 = dist2(q, &self.keys[slot as usize]);
+                    if d2 < best.dist2 {
+                        best = Best { dist2: d2, slot };
+                    }
+                }
+                self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
+                row[0] = self.gated(q, best, &gate);
+            },
+        )
+    }
+
     /// The nearest key of each query among those strictly nearer than its own bound
     /// `within[i]` (a 6-D distance, +∞ for none), or none (index −1) where no key is; no
     /// gate. For a search over part of a cloud bounded by the nearest key already found in
@@ -104,7 +166,11 @@ impl NormalKdTree {
 
     /// The nearest key to `q` (already a 6-D key), gated.
     pub(crate) fn nearest_key(&self, q: &Key, gate: &PreparedGate) -> Neighbor {
-        let best = self.nearest_within(q, gate.radius2);
+        self.gated(q, self.nearest_within(q, gate.radius2), gate)
+    }
+
+    /// The nearest key `best` found for `q`, or none where it fails the gate.
+    fn gated(&self, q: &Key, best: Best, gate: &PreparedGate) -> Neighbor {
         if best.slot == u32::MAX || !gate.passes(q, &self.keys[best.slot as usize]) {
             return Neighbor::NONE;
         }
@@ -281,6 +347,66 @@ mod tests {
             assert!(matches!(
                 tree.query_within(&one.0, &one.1, &[bad], None),
                 Err(KdTreeError::BadParameter { name: "within", .. })
+            ));
+        }
+    }
+
+    /// A hinted query gives the unhinted answer whatever the hints: none, the nearest
+    /// key itself, a key nearby, or any key at all; gated or not.
+    #[test]
+    fn hinted_queries_match_brute_force_whatever_the_hints() {
+        let mut rng = crate::testing::Rng::new(31);
+        for (n, seed) in [(1, 41), (40, 42), (3000, 43)] {
+            let (p, pn) = random_cloud(n, seed);
+            let (q, qn) = random_cloud(600, seed + 100);
+            for leaf in [1, 16] {
+                let opts = BuildOptions {
+                    leaf_size: leaf,
+                    ..BuildOptions::default()
+                };
+                let tree = NormalKdTree::build(&p, &pn, &opts).unwrap();
+                for gate in [
+                    Gate::default(),
+                    Gate {
+                        max_distance: 0.2,
+                        max_angle: 1.0,
+                    },
+                ] {
+                    let ungated: Vec<Neighbor> = (0..q.len())
+                        .map(|i| brute_nearest(&tree, &q[i], &qn[i], &Gate::default()))
+                        .collect();
+                    let hints: Vec<i64> = ungated
+                        .iter()
+                        .enumerate()
+                        .map(|(i, nb)| match i % 4 {
+                            0 => -1,
+                            1 => nb.index,
+                            2 => (nb.index + 1) % n as i64,
+                            _ => ((0.5 + 0.5 * rng.signed()) * n as f64) as i64 % n as i64,
+                        })
+                        .collect();
+                    let got = tree.query_hinted(&q, &qn, &gate, &hints, Some(2)).unwrap();
+                    let cold = tree.query(&q, &qn, &gate, Some(2)).unwrap();
+                    for (i, (g, c)) in got.iter().zip(&cold).enumerate() {
+                        let want = brute_nearest(&tree, &q[i], &qn[i], &gate);
+                        assert_eq!(g.distance, want.distance, "n {n}, leaf {leaf}, query {i}");
+                        assert_eq!(g, c, "n {n}, leaf {leaf}, query {i}: hinted and not");
+                    }
+                }
+            }
+        }
+        let tree =
+            NormalKdTree::build(&[[0.0; 3]], &[[0.0, 0.0, 1.0]], &BuildOptions::default()).unwrap();
+        let one = ([[1.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]]);
+        let g = Gate::default();
+        assert!(matches!(
+            tree.query_hinted(&one.0, &one.1, &g, &[], None),
+            Err(KdTreeError::LengthMismatch { array: "hints", .. })
+        ));
+        for bad in [-2, 1] {
+            assert!(matches!(
+                tree.query_hinted(&one.0, &one.1, &g, &[bad], None),
+                Err(KdTreeError::BadParameter { name: "hints", .. })
             ));
         }
     }
