@@ -242,11 +242,45 @@ def test_mask_clean_up_drops_specks_and_fills_holes_as_labelling_every_component
         noise = rng.random((h, w))
         if rng.random() < 0.7:  # blobs with holes, as a silhouette has; else salt and pepper
             noise = cv2.GaussianBlur(noise, (0, 0), rng.uniform(0.3, 2.0))
-        mask = np.where(noise > rng.uniform(0.3, 0.7), 255, 0).astype(np.uint8)
+        mask = _somewhere_in_a_frame(np.where(noise > rng.uniform(0.3, 0.7), 255, 0).astype(np.uint8), rng)
         min_blob, max_hole = int(rng.integers(1, 30)), None if rng.random() < 0.2 else int(rng.integers(0, 30))
         assert np.array_equal(clean_mask(mask, min_blob, max_hole), _reference_clean_mask(mask, min_blob, max_hole))
     for mask in (np.zeros((4, 5), np.uint8), np.full((4, 5), 255, np.uint8), np.full((1, 1), 255, np.uint8)):
         assert np.array_equal(clean_mask(mask, 1, 3), _reference_clean_mask(mask, 1, 3))
+
+
+def _somewhere_in_a_frame(mask, rng):
+    """`mask` as it is (touching the frame's borders), or placed in a larger empty frame
+    at a random place, half the time each: the clean-up works in the foreground's box."""
+    if rng.random() < 0.5:
+        return mask
+    (h, w), (ph, pw) = mask.shape, rng.integers(0, 12, 2)
+    frame = np.zeros((h + ph + int(rng.integers(0, 12)), w + pw + int(rng.integers(0, 12))), np.uint8)
+    frame[ph:ph + h, pw:pw + w] = mask
+    return frame
+
+
+def test_half_covered_outlines_are_the_rule_applied_to_the_whole_frame(rng):
+    """`half_covered` works in the mask's box; written out over the whole frame: an
+    outline pixel (foreground with a background pixel among its eight neighbours; outside
+    the frame counts as foreground, as OpenCV's erosion has it) is dropped when its
+    distortion is under half the largest among itself and its neighbours in the frame."""
+    from scipy import ndimage
+
+    from hullcap._silhouette import half_covered
+
+    square = np.ones((3, 3), bool)
+    for _ in range(200):
+        h, w = rng.integers(1, 40, 2)
+        blobs = cv2.GaussianBlur(rng.random((h, w)), (0, 0), rng.uniform(0.3, 2.0))
+        mask = _somewhere_in_a_frame(np.where(blobs > rng.uniform(0.3, 0.7), 255, 0).astype(np.uint8), rng)
+        distortion = rng.gamma(2.0, 3.0, mask.shape).astype(np.float32)
+        fg = mask > 0
+        ring = fg & ~ndimage.binary_erosion(fg, square, border_value=1)
+        largest = ndimage.maximum_filter(distortion, size=3, mode="constant", cval=-np.inf)
+        want = np.where(ring & (distortion < 0.5 * largest), 0, mask).astype(np.uint8)
+        assert np.array_equal(half_covered(mask, distortion), want)
+    assert not half_covered(np.zeros((3, 4), np.uint8), np.ones((3, 4), np.float32)).any()
 
 
 def test_a_silhouette_is_where_the_z_buffer_sees_the_mesh_and_grows_as_a_whole_image_would():
