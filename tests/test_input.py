@@ -645,3 +645,42 @@ def test_a_wall_the_colour_of_the_subjects_shirt_stays_background(scene_share, r
     for share in (1.0, 1.5):
         with pytest.raises(ValueError, match="scene_share"):
             GuidedOptions(scene_share=share)
+
+
+@pytest.mark.parametrize("bins", [1, 7, 16, 41, 256])
+def test_the_colour_models_log_ratio_is_the_histograms_of_each_pixels_colour(bins, rng):
+    """Each pixel's colour falls in bin (level · bins) // 256 of each channel; its log-ratio
+    is that of the add-one smoothed histograms, the background's mixed with the scene's,
+    and follows what is learnt next."""
+    from hullcap._guided import ColourModel, GuidedOptions
+
+    image = rng.integers(0, 256, (30, 40, 3), dtype=np.uint8)
+    scene = rng.uniform(0, 255.99, (30, 40, 3)).astype(np.float32)  # expected colours, as the segmenter has them
+    model = ColourModel(bins, scene, 0.5)
+    assert not model.log_ratio(image).any()
+    n = bins**3
+
+    def index(img):
+        q = img.astype(np.int64) * bins // 256  # whole grey levels
+        return (q[..., 0] * bins + q[..., 1]) * bins + q[..., 2]
+
+    subject = np.zeros(n)
+    background = np.zeros(n)
+    counted_scene = np.bincount(index(scene).ravel(), minlength=n)
+    for _ in range(2):  # learning again changes the ratios
+        taught = rng.integers(0, 256, (30, 40, 3), dtype=np.uint8)
+        inside = rng.random((30, 40)) < 0.4
+        model.learn(taught, inside, ~inside)
+        subject += np.bincount(index(taught)[inside], minlength=n)
+        background += np.bincount(index(taught)[~inside], minlength=n)
+        p_subject = (subject + 1) / (subject.sum() + n)
+        p_background = 0.5 * (background + 1) / (background.sum() + n) + 0.5 * counted_scene / counted_scene.sum()
+        want = np.log(p_subject) - np.log(p_background)
+        got = model.log_ratio(image[5:25, 3:33])  # a window of the image, as the segmenter asks
+        np.testing.assert_allclose(got, want[index(image[5:25, 3:33])], rtol=1e-5, atol=1e-5)
+        assert got.dtype == np.float32
+    model.clear()
+    assert not model.log_ratio(image).any()
+    for bad in (0, 257):
+        with pytest.raises(ValueError, match="bins"):
+            GuidedOptions(bins=bad)

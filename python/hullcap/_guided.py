@@ -134,6 +134,8 @@ class GuidedOptions:
         if not (self.band > 0 and self.band_frame_rate > 0 and (self.outer_band is None or self.outer_band > 0)):
             raise OptionsError(f"GuidedOptions: band, outer_band and band_frame_rate must be positive, got "
                                f"{self.band}, {self.outer_band} and {self.band_frame_rate}")
+        if not 1 <= self.bins <= 256:
+            raise OptionsError(f"GuidedOptions.bins must lie in 1..256 (bins per 8-bit channel), got {self.bins}")
         if not 0 <= self.scene_share < 1:  # the band's colours always count: a scene lacks some
             raise OptionsError(f"GuidedOptions.scene_share must lie in [0, 1), got {self.scene_share}")
         if not (self.texture_weight >= 0 and self.texture_min_std >= 0):
@@ -168,39 +170,49 @@ class ColourModel:
 
     def __init__(self, bins: int, scene: np.ndarray, scene_share: float):
         self.bins = bins
+        self._bin = ((np.arange(256) * bins) >> 8).astype(np.uint8)  # a grey level's bin
+        self._dtype = np.uint16 if bins**3 <= 1 << 16 else np.uint32
         self.subject = np.zeros(bins**3)
         self.background = np.zeros(bins**3)
         self.scene = np.bincount(self._index(scene).ravel(), minlength=bins**3).astype(float)
         self.scene_share = scene_share
+        self._table = None  # the log-ratio of each colour, once asked for after learning
 
     def clear(self) -> None:
         """Forget what was learnt (the scene stays)."""
         self.subject[:] = 0
         self.background[:] = 0
+        self._table = None
 
     @property
     def ready(self) -> bool:
         return self.subject.sum() > 0 and self.background.sum() > 0
 
     def _index(self, image: np.ndarray) -> np.ndarray:
-        q = (image.astype(np.int32) * self.bins) >> 8
-        return (q[..., 0] * self.bins + q[..., 1]) * self.bins + q[..., 2]
+        """Each pixel's colour bin; `image`: uint8, or grey levels as floats (the scene's
+        expected colours), whose whole part counts."""
+        q = cv2.LUT(image if image.dtype == np.uint8 else image.astype(np.uint8), self._bin)
+        n = self._dtype(self.bins)
+        return (q[..., 0].astype(self._dtype) * n + q[..., 1]) * n + q[..., 2]
 
     def learn(self, image: np.ndarray, subject: np.ndarray, background: np.ndarray) -> None:
         """Count the colours of `image` under the boolean masks `subject` and `background`."""
         idx = self._index(image)
         self.subject += np.bincount(idx[subject], minlength=self.bins**3)
         self.background += np.bincount(idx[background], minlength=self.bins**3)
+        self._table = None
 
     def log_ratio(self, image: np.ndarray) -> np.ndarray:
         """log P(colour | subject) − log P(colour | background) per pixel (add-one
         smoothed; 0 everywhere before anything was learnt)."""
         if not self.ready:
             return np.zeros(image.shape[:2], np.float32)
-        s = np.log((self.subject + 1) / (self.subject.sum() + self.subject.size))
-        band = (self.background + 1) / (self.background.sum() + self.background.size)
-        b = np.log((1 - self.scene_share) * band + self.scene_share * self.scene / self.scene.sum())
-        return (s - b).astype(np.float32)[self._index(image)]
+        if self._table is None:
+            s = np.log((self.subject + 1) / (self.subject.sum() + self.subject.size))
+            band = (self.background + 1) / (self.background.sum() + self.background.size)
+            b = np.log((1 - self.scene_share) * band + self.scene_share * self.scene / self.scene.sum())
+            self._table = (s - b).astype(np.float32)
+        return np.take(self._table, self._index(image))
 
 
 class TextureTest:
