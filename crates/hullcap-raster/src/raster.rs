@@ -82,6 +82,29 @@ struct Screen {
     inv_z: [f64; 3],
 }
 
+impl Screen {
+    /// The barycentric coordinates of the pixel centre (x, y) when the triangle covers
+    /// it (the top-left rule on its edges), else `None`.
+    #[inline]
+    fn barycentric(&self, x: f64, y: f64) -> Option<[f64; 3]> {
+        let mut bary = [0.0; 3];
+        for (k, slot) in bary.iter_mut().enumerate() {
+            let e = self.a[k] * x + self.b[k] * y + self.c[k];
+            if e < 0.0 || (e == 0.0 && !self.owns_edge[k]) {
+                return None;
+            }
+            *slot = e;
+        }
+        Some(bary)
+    }
+
+    /// Whether the triangle covers the pixel centre (x, y).
+    #[inline]
+    fn covers(&self, x: f64, y: f64) -> bool {
+        self.barycentric(x, y).is_some()
+    }
+}
+
 /// Rasterises triangles `faces` over `vertices` given as (u, v, z): pixel coordinates and
 /// camera depth (metres, positive in front). Threads: `None` = all cores.
 ///
@@ -195,6 +218,17 @@ fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -
     }) {
         return None;
     }
+    // The pixel centres the triangle's box holds; most of a body's small triangles far
+    // from the image, or between two centres, end here before their edges are worked out.
+    let lo = |d: usize| p.iter().map(|c| c[d]).fold(f64::INFINITY, f64::min);
+    let hi = |d: usize| p.iter().map(|c| c[d]).fold(f64::NEG_INFINITY, f64::max);
+    let x0 = lo(0).ceil().max(0.0);
+    let y0 = lo(1).ceil().max(0.0);
+    let x1 = hi(0).floor().min(width as f64 - 1.0);
+    let y1 = hi(1).floor().min(height as f64 - 1.0);
+    if x0 > x1 || y0 > y1 {
+        return None;
+    }
     let area =
         (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
     if area == 0.0 || !area.is_finite() {
@@ -212,15 +246,6 @@ fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -
         // Top-left rule on the normalised edge function (inside is positive): own the
         // edge when its inward normal points down (+v) or, if horizontal, right (+u).
         owns_edge[k] = b[k] > 0.0 || (b[k] == 0.0 && a[k] > 0.0);
-    }
-    let lo = |d: usize| p.iter().map(|c| c[d]).fold(f64::INFINITY, f64::min);
-    let hi = |d: usize| p.iter().map(|c| c[d]).fold(f64::NEG_INFINITY, f64::max);
-    let x0 = lo(0).ceil().max(0.0);
-    let y0 = lo(1).ceil().max(0.0);
-    let x1 = hi(0).floor().min(width as f64 - 1.0);
-    let y1 = hi(1).floor().min(height as f64 - 1.0);
-    if x0 > x1 || y0 > y1 {
-        return None;
     }
     Some(Screen {
         face,
@@ -257,18 +282,7 @@ fn for_covered(
             if pixel < lo || pixel >= hi {
                 continue;
             }
-            let (xf, yf) = (f64::from(x), f64::from(y));
-            let mut bary = [0.0; 3];
-            let mut inside = true;
-            for (k, slot) in bary.iter_mut().enumerate() {
-                let e = s.a[k] * xf + s.b[k] * yf + s.c[k];
-                if e < 0.0 || (e == 0.0 && !s.owns_edge[k]) {
-                    inside = false;
-                    break;
-                }
-                *slot = e;
-            }
-            if inside {
+            if let Some(bary) = s.barycentric(f64::from(x), f64::from(y)) {
                 visit(pixel - lo, bary);
             }
         }
@@ -291,10 +305,27 @@ fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, 
 }
 
 /// Marks with 1 the pixels `offset .. offset + band.len()` that any triangle covers.
+/// A pixel already marked is not tested again: the marks are the same.
 fn cover_band(screens: &[Screen], width: usize, offset: usize, band: &mut [u8]) {
     let n = band.len();
+    let first_row = (offset / width) as i32;
+    let last_row = ((offset + n - 1) / width) as i32;
     for s in screens {
-        for_covered(s, width, offset, n, |i, _| band[i] = 1);
+        if s.y1 < first_row || s.y0 > last_row {
+            continue;
+        }
+        for y in s.y0.max(first_row)..=s.y1.min(last_row) {
+            let row = y as usize * width;
+            for x in s.x0..=s.x1 {
+                let pixel = row + x as usize;
+                if pixel < offset || pixel >= offset + n || band[pixel - offset] != 0 {
+                    continue;
+                }
+                if s.covers(f64::from(x), f64::from(y)) {
+                    band[pixel - offset] = 1;
+                }
+            }
+        }
     }
 }
 
