@@ -548,24 +548,29 @@ mod tests {
         };
         let points: Vec<u32> = (0..rig.n_vertices() as u32).step_by(2).collect();
         let mut hints = Hints::default();
-        let mut at = truth.clone();
-        for step in 0..4 {
-            at.theta[step % 3] += 0.03;
-            at.root.translation.x += 0.004;
+        // The pairs at `at` without hints and with `hints`, which they update.
+        let both = |at: &Params, options: &FitOptions, hints: &mut Hints| {
             let pose = rig.skeleton().forward(&at.theta).unwrap();
             let cold = problem
                 .correspond(
                     &pose,
                     &at.root,
                     &points,
-                    &options,
+                    options,
                     true,
                     &mut Hints::default(),
                 )
                 .unwrap();
             let warm = problem
-                .correspond(&pose, &at.root, &points, &options, true, &mut hints)
+                .correspond(&pose, &at.root, &points, options, true, hints)
                 .unwrap();
+            (cold, warm)
+        };
+        let mut at = truth.clone();
+        for step in 0..4 {
+            at.theta[step % 3] += 0.03;
+            at.root.translation.x += 0.004;
+            let (cold, warm) = both(&at, &options, &mut hints);
             assert_eq!(warm, cold, "step {step}");
             assert!(hints.forward.iter().any(|&h| h >= 0));
             assert_eq!(hints.reverse.len(), target.samples(300).len());
@@ -574,20 +579,7 @@ mod tests {
             reverse_points: 150,
             ..options
         };
-        let pose = rig.skeleton().forward(&at.theta).unwrap();
-        let cold = problem
-            .correspond(
-                &pose,
-                &at.root,
-                &points,
-                &coarser,
-                true,
-                &mut Hints::default(),
-            )
-            .unwrap();
-        let warm = problem
-            .correspond(&pose, &at.root, &points, &coarser, true, &mut hints)
-            .unwrap();
+        let (cold, warm) = both(&at, &coarser, &mut hints);
         assert_eq!(warm, cold);
         assert_eq!(hints.reverse.len(), target.samples(150).len());
         assert_ne!(target.samples(150).len(), target.samples(300).len());

@@ -3,7 +3,7 @@
 use crate::KdTreeError;
 use crate::build::NormalKdTree;
 use crate::descend::Candidates;
-use crate::gate::{Gate, PreparedGate};
+use crate::gate::Gate;
 use crate::keys::{Key, dist2};
 
 /// The answer for one query.
@@ -44,17 +44,7 @@ impl NormalKdTree {
         gate: &Gate,
         threads: Option<usize>,
     ) -> Result<Vec<Neighbor>, KdTreeError> {
-        let threads = hullcap_core::resolve_threads(threads);
-        let (queries, gate) = self.batch_queries(points, normals, gate, threads)?;
-        self.answer_batch(
-            &queries,
-            1,
-            threads,
-            || (),
-            |_, _, q, row| {
-                row[0] = self.nearest_key(q, &gate);
-            },
-        )
+        self.nearest_keys(points, normals, gate, |_| None, threads)
     }
 
     /// [`NormalKdTree::query`] with a hint per query: the caller's index of a key that is
@@ -76,14 +66,7 @@ impl NormalKdTree {
         hints: &[i64],
         threads: Option<usize>,
     ) -> Result<Vec<Neighbor>, KdTreeError> {
-        if hints.len() != points.len() {
-            return Err(KdTreeError::LengthMismatch {
-                array: "hints",
-                got: hints.len(),
-                expected_from: "query points",
-                expected: points.len(),
-            });
-        }
+        one_per_query("hints", hints.len(), points.len())?;
         if let Some(&bad) = hints
             .iter()
             .find(|&&h| h < -1 || h >= self.keys.len() as i64)
@@ -94,6 +77,25 @@ impl NormalKdTree {
                 value: bad as f64,
             });
         }
+        self.nearest_keys(
+            points,
+            normals,
+            gate,
+            |i| (hints[i] >= 0).then(|| self.slot[hints[i] as usize]),
+            threads,
+        )
+    }
+
+    /// The gated nearest key of each query, the search of query `i` bounded from the
+    /// start by the key at leaf position `hint(i)` when there is one.
+    fn nearest_keys(
+        &self,
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        gate: &Gate,
+        hint: impl Fn(usize) -> Option<u32> + Sync,
+        threads: Option<usize>,
+    ) -> Result<Vec<Neighbor>, KdTreeError> {
         let threads = hullcap_core::resolve_threads(threads);
         let (queries, gate) = self.batch_queries(points, normals, gate, threads)?;
         self.answer_batch(
@@ -106,15 +108,19 @@ impl NormalKdTree {
                     dist2: gate.radius2,
                     slot: u32::MAX,
                 };
-                if hints[i] >= 0 {
-                    let slot = self.slot[hints[i] as usize];
+                if let Some(slot) = hint(i) {
                     let d2 = dist2(q, &self.keys[slot as usize]);
                     if d2 < best.dist2 {
                         best = Best { dist2: d2, slot };
                     }
                 }
                 self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
-                row[0] = self.gated(q, best, &gate);
+                row[0] = if best.slot == u32::MAX || !gate.passes(q, &self.keys[best.slot as usize])
+                {
+                    Neighbor::NONE
+                } else {
+                    best.neighbor(self)
+                };
             },
         )
     }
@@ -136,14 +142,7 @@ impl NormalKdTree {
         within: &[f64],
         threads: Option<usize>,
     ) -> Result<Vec<Neighbor>, KdTreeError> {
-        if within.len() != points.len() {
-            return Err(KdTreeError::LengthMismatch {
-                array: "within",
-                got: within.len(),
-                expected_from: "query points",
-                expected: points.len(),
-            });
-        }
+        one_per_query("within", within.len(), points.len())?;
         if let Some(&bad) = within.iter().find(|b| b.is_nan() || **b < 0.0) {
             return Err(KdTreeError::BadParameter {
                 name: "within",
@@ -164,19 +163,6 @@ impl NormalKdTree {
         )
     }
 
-    /// The nearest key to `q` (already a 6-D key), gated.
-    pub(crate) fn nearest_key(&self, q: &Key, gate: &PreparedGate) -> Neighbor {
-        self.gated(q, self.nearest_within(q, gate.radius2), gate)
-    }
-
-    /// The nearest key `best` found for `q`, or none where it fails the gate.
-    fn gated(&self, q: &Key, best: Best, gate: &PreparedGate) -> Neighbor {
-        if best.slot == u32::MAX || !gate.passes(q, &self.keys[best.slot as usize]) {
-            return Neighbor::NONE;
-        }
-        best.neighbor(self)
-    }
-
     /// The nearest key to `q` strictly within the squared 6-D distance `radius2`.
     fn nearest_within(&self, q: &Key, radius2: f64) -> Best {
         let mut best = Best {
@@ -186,6 +172,19 @@ impl NormalKdTree {
         self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
         best
     }
+}
+
+/// An error unless the array `array` has one entry (`got`) per query (`queries`).
+fn one_per_query(array: &'static str, got: usize, queries: usize) -> Result<(), KdTreeError> {
+    if got != queries {
+        return Err(KdTreeError::LengthMismatch {
+            array,
+            got,
+            expected_from: "query points",
+            expected: queries,
+        });
+    }
+    Ok(())
 }
 
 #[derive(Clone, Copy)]
