@@ -274,12 +274,15 @@ def test_half_covered_outlines_are_the_rule_applied_to_the_whole_frame(rng):
         h, w = rng.integers(1, 40, 2)
         blobs = cv2.GaussianBlur(rng.random((h, w)), (0, 0), rng.uniform(0.3, 2.0))
         mask = _somewhere_in_a_frame(np.where(blobs > rng.uniform(0.3, 0.7), 255, 0).astype(np.uint8), rng)
-        distortion = rng.gamma(2.0, 3.0, mask.shape).astype(np.float32)
+        evidence = rng.gamma(2.0, 3.0, mask.shape).astype(np.float32) - 3
+        threshold = float(rng.uniform(3, 4))  # given as the background test's evidence and its threshold
+        distortion = evidence + threshold
         fg = mask > 0
         ring = fg & ~ndimage.binary_erosion(fg, square, border_value=1)
         largest = ndimage.maximum_filter(distortion, size=3, mode="constant", cval=-np.inf)
         want = np.where(ring & (distortion < 0.5 * largest), 0, mask).astype(np.uint8)
         assert np.array_equal(half_covered(mask, distortion), want)
+        assert np.array_equal(half_covered(mask, evidence, threshold), want)
     assert not half_covered(np.zeros((3, 4), np.uint8), np.ones((3, 4), np.float32)).any()
 
 

@@ -286,7 +286,6 @@ class GuidedSegmenter:
         box = None if prior is None else _box(prior)
         if box is None:
             return self.background.mask(image, evidence)
-        distortion = evidence + self.background.thresholds.chromaticity
         x, y, w, h = box
         pad = int(round(o.reach * h))
         y0, y1 = max(0, y - pad), min(image.shape[0], y + h + pad)
@@ -304,7 +303,8 @@ class GuidedSegmenter:
         raw = cv2.compare(evidence, 0.0, cv2.CMP_GT)
         raw[roi] = cv2.compare(logit, 0.0, cv2.CMP_GT)
         area = float(np.count_nonzero(prior))
-        return half_covered(clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area)), distortion)
+        cleaned = clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area))
+        return half_covered(cleaned, evidence, self.background.thresholds.chromaticity)
 
 
 def _ramp(prior: np.ndarray, box, roi, band: float, outer: float) -> np.ndarray:

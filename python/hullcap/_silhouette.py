@@ -142,7 +142,7 @@ class StatisticalBackground:
         if evidence is None:
             evidence = self.evidence(image)
         raw = np.where(evidence > 0, 255, 0).astype(np.uint8)
-        return half_covered(clean_mask(raw, self.min_blob, self.max_hole), evidence + self.thresholds.chromaticity)
+        return half_covered(clean_mask(raw, self.min_blob, self.max_hole), evidence, self.thresholds.chromaticity)
 
 
 class Mog2Background:
@@ -213,7 +213,7 @@ def _clear_components(mask: np.ndarray, connectivity: int, clear) -> None:
         mask[chosen[labels]] = 0
 
 
-def half_covered(mask: np.ndarray, distortion: np.ndarray) -> np.ndarray:
+def half_covered(mask: np.ndarray, distortion: np.ndarray, offset: float = 0.0) -> np.ndarray:
     """`mask` (0/255) without the boundary pixels that the subject covers less than half.
 
     Lens blur mixes the subject's colour with the background's in the pixels along its
@@ -221,7 +221,8 @@ def half_covered(mask: np.ndarray, distortion: np.ndarray) -> np.ndarray:
     silhouettes come out a fraction of a pixel too large all round, which a hull of many
     views adds up. A mixed pixel's distortion is about its share of the subject times the
     distortion of the subject beside it, so a boundary pixel is kept when its distortion
-    (`distortion`, ≥ 0) is at least half the largest among its eight neighbours."""
+    (`distortion` + `offset`, ≥ 0: the background test's evidence plus its threshold) is at
+    least half the largest among its eight neighbours. Only the mask's box is read."""
     out = mask.copy()
     x, y, w, h = cv2.boundingRect(out)
     if w == 0:
@@ -230,7 +231,7 @@ def half_covered(mask: np.ndarray, distortion: np.ndarray) -> np.ndarray:
     y0, y1, x0, x1 = max(0, y - 1), min(out.shape[0], y + h + 1), max(0, x - 1), min(out.shape[1], x + w + 1)
     fg = (out[y0:y1, x0:x1] > 0).astype(np.uint8)
     ring = (fg > 0) & (cv2.erode(fg, np.ones((3, 3), np.uint8)) == 0)
-    d = distortion[y0:y1, x0:x1]
+    d = distortion[y0:y1, x0:x1] + offset
     neighbours = cv2.dilate(d.astype(np.float32), np.ones((3, 3), np.uint8))
     out[y0:y1, x0:x1][ring & (d < 0.5 * neighbours)] = 0
     return out

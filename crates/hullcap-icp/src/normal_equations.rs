@@ -43,8 +43,9 @@ pub(crate) struct Correspondences {
 
 /// Each query's answer at the last search of a fit, as hints for the next
 /// ([`NormalKdTree::query_hinted`]): between iterations the model moves little, and a
-/// search bounded from the start by the last partner's distance skips most of the tree.
-/// The pairs are the same with hints or without.
+/// search bounded from the start by the last partner's distance skips the cells that
+/// cannot hold a nearer key (a d01 fit 0.947× the time, docs/performance.md). The pairs
+/// are the same with hints or without.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Hints {
     /// Per model vertex of the rig: the target point that was its nearest key, −1 for none.

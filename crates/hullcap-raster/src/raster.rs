@@ -261,14 +261,14 @@ fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -
     })
 }
 
-/// Calls `visit(pixel − offset, barycentric coordinates)` for every pixel of the band
-/// `offset .. offset + band_len` that triangle `s` covers.
-fn for_covered(
+/// Calls `visit(pixel − offset, x, y)` for every pixel (x, y) of triangle `s`'s box that
+/// lies in the band `offset .. offset + band_len`; `visit` tests whether `s` covers it.
+fn for_box_pixels(
     s: &Screen,
     width: usize,
     offset: usize,
     band_len: usize,
-    mut visit: impl FnMut(usize, [f64; 3]),
+    mut visit: impl FnMut(usize, f64, f64),
 ) {
     let first_row = (offset / width) as i32;
     let last_row = ((offset + band_len - 1) / width) as i32;
@@ -279,11 +279,8 @@ fn for_covered(
     for y in s.y0.max(first_row)..=s.y1.min(last_row) {
         for x in s.x0..=s.x1 {
             let pixel = y as usize * width + x as usize;
-            if pixel < lo || pixel >= hi {
-                continue;
-            }
-            if let Some(bary) = s.barycentric(f64::from(x), f64::from(y)) {
-                visit(pixel - lo, bary);
+            if (lo..hi).contains(&pixel) {
+                visit(pixel - lo, f64::from(x), f64::from(y));
             }
         }
     }
@@ -293,12 +290,14 @@ fn for_covered(
 fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, i32)]) {
     let n = band.len();
     for s in screens {
-        for_covered(s, width, offset, n, |i, bary| {
-            let inv_z = bary[0] * s.inv_z[0] + bary[1] * s.inv_z[1] + bary[2] * s.inv_z[2];
-            let z = (1.0 / inv_z) as f32;
-            let slot = &mut band[i];
-            if z < slot.0 || (z == slot.0 && s.face < slot.1) {
-                *slot = (z, s.face);
+        for_box_pixels(s, width, offset, n, |i, x, y| {
+            if let Some(bary) = s.barycentric(x, y) {
+                let inv_z = bary[0] * s.inv_z[0] + bary[1] * s.inv_z[1] + bary[2] * s.inv_z[2];
+                let z = (1.0 / inv_z) as f32;
+                let slot = &mut band[i];
+                if z < slot.0 || (z == slot.0 && s.face < slot.1) {
+                    *slot = (z, s.face);
+                }
             }
         });
     }
@@ -308,24 +307,12 @@ fn draw_band(screens: &[Screen], width: usize, offset: usize, band: &mut [(f32, 
 /// A pixel already marked is not tested again: the marks are the same.
 fn cover_band(screens: &[Screen], width: usize, offset: usize, band: &mut [u8]) {
     let n = band.len();
-    let first_row = (offset / width) as i32;
-    let last_row = ((offset + n - 1) / width) as i32;
     for s in screens {
-        if s.y1 < first_row || s.y0 > last_row {
-            continue;
-        }
-        for y in s.y0.max(first_row)..=s.y1.min(last_row) {
-            let row = y as usize * width;
-            for x in s.x0..=s.x1 {
-                let pixel = row + x as usize;
-                if pixel < offset || pixel >= offset + n || band[pixel - offset] != 0 {
-                    continue;
-                }
-                if s.covers(f64::from(x), f64::from(y)) {
-                    band[pixel - offset] = 1;
-                }
+        for_box_pixels(s, width, offset, n, |i, x, y| {
+            if band[i] == 0 && s.covers(x, y) {
+                band[i] = 1;
             }
-        }
+        });
     }
 }
 
