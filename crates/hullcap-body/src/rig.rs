@@ -338,18 +338,22 @@ impl Rig {
         out: &mut [[f64; 3]],
     ) {
         let k = self.weights.k;
+        let links = &self.weights.index[i * k..(i + 1) * k];
+        let weights = &self.weights.weight[i * k..(i + 1) * k];
         let m = self.rest_vertices[i];
         // Where each of the vertex's links puts it, and the blend of those.
         let mut placed = [Vector3::zeros(); MAX_WEIGHTS];
         let mut skinned = m;
-        for (c, slot) in placed.iter_mut().enumerate().take(k) {
-            let offset =
-                pose.skin_offset(&self.skeleton, self.weights.index[i * k + c] as usize, &m);
+        for ((slot, &j), &w) in placed.iter_mut().zip(links).zip(weights) {
+            let offset = pose.skin_offset(&self.skeleton, j as usize, &m);
             *slot = m + offset;
-            skinned += self.weights.weight[i * k + c] * offset;
+            skinned += w * offset;
         }
         let world = root.rotation * skinned;
         let dofs = self.skeleton.dofs();
+        // The DOFs of one link come one after another and share the blend of the
+        // placements that turn with that link: it is summed once per link.
+        let mut last: Option<(usize, Vector3<f64>, f64)> = None;
         for (slot, &p) in out.iter_mut().zip(params) {
             *slot = match p {
                 0..=2 => Vector3::ith(p, 1.0),
@@ -357,18 +361,21 @@ impl Rig {
                 _ => {
                     let d = p - 6;
                     let link = dofs[d].link;
-                    let mut moved = Vector3::zeros();
-                    let mut weight = 0.0;
-                    for (c, at) in placed.iter().enumerate().take(k) {
-                        if self
-                            .skeleton
-                            .moves_with(self.weights.index[i * k + c] as usize, link)
-                        {
-                            let w = self.weights.weight[i * k + c];
-                            moved += w * at;
-                            weight += w;
+                    let (moved, weight) = match last {
+                        Some((l, moved, weight)) if l == link => (moved, weight),
+                        _ => {
+                            let mut moved = Vector3::zeros();
+                            let mut weight = 0.0;
+                            for ((at, &j), &w) in placed.iter().zip(links).zip(weights) {
+                                if self.skeleton.moves_with(j as usize, link) {
+                                    moved += w * at;
+                                    weight += w;
+                                }
+                            }
+                            last = Some((link, moved, weight));
+                            (moved, weight)
                         }
-                    }
+                    };
                     if weight == 0.0 {
                         // Most of a vertex's columns: a DOF none of its weighted links turns with.
                         Vector3::zeros()

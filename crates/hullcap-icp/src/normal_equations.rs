@@ -477,26 +477,43 @@ impl Problem<'_> {
                         );
                     }
                     let columns = row.iter().chain(shape_row.iter());
-                    let nq = &self.target.normals[t];
-                    for (slot, col) in j.iter_mut().zip(columns) {
-                        *slot = match p.kind {
-                            Residual::PointToPoint => *col,
-                            Residual::PointToPlane => {
-                                [col[0] * nq[0] + col[1] * nq[1] + col[2] * nq[2], 0.0, 0.0]
+                    match p.kind {
+                        Residual::PointToPoint => {
+                            for (slot, col) in j.iter_mut().zip(columns) {
+                                *slot = *col;
                             }
-                        };
+                        }
+                        Residual::PointToPlane => {
+                            let nq = &self.target.normals[t];
+                            for (slot, col) in j.iter_mut().zip(columns) {
+                                *slot =
+                                    [col[0] * nq[0] + col[1] * nq[1] + col[2] * nq[2], 0.0, 0.0];
+                            }
+                        }
                     }
                     // Only the parameters that move this vertex (its own links' chains and
                     // the root) have non-zero columns; the others would add exact zeros.
                     moving.clear();
                     moving.extend((0..n).filter(|&a| j[a] != [0.0; 3]));
-                    for (x, &a) in moving.iter().enumerate() {
-                        let ja = &j[a];
-                        sums.gradient[a] += w * (0..m).map(|k| ja[k] * r[k]).sum::<f64>();
-                        for &b in &moving[x..] {
-                            let jb = &j[b];
-                            sums.hessian[a * n + b] +=
-                                w * (0..m).map(|k| ja[k] * jb[k]).sum::<f64>();
+                    if m == 1 {
+                        // A point-to-plane pair: one number per column.
+                        for (x, &a) in moving.iter().enumerate() {
+                            let ja = j[a][0];
+                            sums.gradient[a] += w * (ja * r[0]);
+                            let row = &mut sums.hessian[a * n..(a + 1) * n];
+                            for &b in &moving[x..] {
+                                row[b] += w * (ja * j[b][0]);
+                            }
+                        }
+                    } else {
+                        for (x, &a) in moving.iter().enumerate() {
+                            let ja = &j[a];
+                            sums.gradient[a] += w * (0..m).map(|k| ja[k] * r[k]).sum::<f64>();
+                            for &b in &moving[x..] {
+                                let jb = &j[b];
+                                sums.hessian[a * n + b] +=
+                                    w * (0..m).map(|k| ja[k] * jb[k]).sum::<f64>();
+                            }
                         }
                     }
                 }
