@@ -255,3 +255,35 @@ def test_a_search_fits_only_candidates_that_explain_more_than_the_tracked_fit(mo
     assert found is tracked and resampled == [tracked] and spent == 0 and fits == []
     found, spent = search.search(target, surface, [], None, far)
     assert fits and spent > 0 and quality(found) > quality(far) + 0.3 and quality(found) > 0.9
+
+
+def test_the_screen_passes_on_the_best_candidates_and_always_the_pose_to_beat():
+    """A rough scoring on a quarter of the points passes the best `screen` candidates and
+    the last pose (the one to beat) on to the scoring proper, which orders them as a
+    ranking of every candidate would; the body's own pose comes first."""
+    from hullcap._fitting import PoseParameters, make_target
+    from hullcap._mesh import Surface
+    from hullcap._reacquire import SearchOptions
+    from hullcap.errors import OptionsError
+
+    model = BodyModel.template()
+    root = np.array([0.0, 0.0, model.rest_root_height])
+    posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
+    target = make_target(Surface(posed.vertices, model.faces, posed.normals))
+    rng = np.random.default_rng(5)
+    poses = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + rng.normal(0.0, 0.08, 3)) for _ in range(12)]
+    poses.insert(7, PoseParameters(np.zeros(model.n_dofs), np.eye(3), root))
+    poses.append(PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [1.0, 0.0, 0.0]))  # to beat: far off
+    fit_options = TrackerOptions().fit
+    every = PoseSearch(model, fit_options, SearchOptions(screen=0))._rank(target, poses)
+    search = PoseSearch(model, fit_options, SearchOptions(screen=3))
+    screened = search._rank(target, poses)
+    assert len(every) == len(poses) and len(screened) == 4
+    assert screened[0] is poses[7] and every[0] is poses[7] and screened[-1] is poses[-1]
+    assert screened == [p for p in every if any(p is s for s in screened)]
+    rank, rough = search._rank_options, search._screen_options
+    assert (rough.model_points, rough.reverse_points, rough.reverse_vertices) == (
+        rank.model_points // 4, rank.reverse_points // 4, rank.reverse_vertices // 4)
+    for bad in ({"screen": -1}, {"screen_coarse": 0}):
+        with pytest.raises(OptionsError):
+            SearchOptions(**bad)
