@@ -758,6 +758,7 @@ class _State:
         self.limbs = [c for c, name in enumerate(CHAINS) if name != "trunk"]
         self.reference: deque = deque(maxlen=options.quality_window)
         self.chain_reference: deque = deque(maxlen=options.quality_window)
+        self._medians: tuple[float, np.ndarray] | None = None  # of the references, until they change
         self.anchor_pose = anchor.pose if anchor is not None else None
         # A tracked fit no search could beat, as (quality, chain qualities): the bar of
         # the frames after it (TrackerOptions.recheck_margin).
@@ -771,6 +772,7 @@ class _State:
             self.confirmed = None
         self.reference.append(quality(fitted))
         self.chain_reference.append(chain_quality(fitted.link_counts, self.chains))
+        self._medians = None
 
     def remember(self, result: TrackingResult, upto: int) -> None:
         """Take the reference quality and the anchor from frames already tracked (resume)."""
@@ -778,6 +780,7 @@ class _State:
         for f in done[-self.options.quality_window:]:
             self.reference.append(float(result.quality[f]))
             self.chain_reference.append(chain_quality(result.link_counts[f], self.chains))
+        self._medians = None
         if done:
             self.anchor_pose = result.pose(done[0])
 
@@ -785,19 +788,27 @@ class _State:
         """Whether nothing before `frame` was tracked and the anchor is the prediction."""
         return self.anchor_pose is not None and result.failed[:frame].all()
 
+    def _reference_medians(self) -> tuple[float, np.ndarray]:
+        """The medians of the reference qualities, whole body and per chain (NaN for a
+        chain never judged), worked out once for every fit judged until they change."""
+        if self._medians is None:
+            whole = float(np.median(self.reference)) if self.reference else 0.0
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a chain never judged: all NaN
+                chains = np.nanmedian(np.array(self.chain_reference), axis=0) if self.chain_reference else None
+            self._medians = (whole, chains)
+        return self._medians
+
     def floor(self) -> float:
         """The least whole-body quality of a good fit."""
-        reference = float(np.median(self.reference)) if self.reference else 0.0
-        return max(self.options.min_quality, reference - self.options.quality_margin)
+        return max(self.options.min_quality, self._reference_medians()[0] - self.options.quality_margin)
 
     def lost_chains(self, fitted: FitResult) -> list[int]:
         """The limb chains whose quality lies more than ``chain_margin`` below their
         reference."""
-        if not self.chain_reference:
+        reference = self._reference_medians()[1]
+        if reference is None:
             return []
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # a chain never judged: all NaN
-            reference = np.nanmedian(np.array(self.chain_reference), axis=0)
         return self._chains_below(fitted, reference, self.options.chain_margin)
 
     def _chains_below(self, fitted: FitResult, reference: np.ndarray, margin: float) -> list[int]:
