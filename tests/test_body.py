@@ -113,6 +113,24 @@ def test_pure_root_motion_is_rigid(model):
     assert np.allclose(pose.normals, model.normals @ R.T, atol=1e-12)
 
 
+def test_joints_alone_are_the_posed_joints_to_the_bit(model):
+    """`joints` gives what `pose` does without posing the mesh, clamped or not, and refuses
+    what `pose` refuses."""
+    rng = np.random.default_rng(4)
+    c, s = np.cos(0.7), np.sin(0.7)
+    R = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    for clamp in (True, False):
+        theta = rng.uniform(-1.5, 1.5, model.n_dofs)
+        t = rng.normal(size=3)
+        assert np.array_equal(model.joints(theta, R, t, clamp=clamp), model.pose(theta, R, t, clamp=clamp).joints)
+    with pytest.raises(ValueError, match="theta must have 29"):
+        model.joints(np.zeros(28))
+    with pytest.raises(ValueError, match="root_rotation must have shape"):
+        model.joints(root_rotation=np.eye(2))
+    with pytest.raises(ValueError, match="rotation"):
+        model.joints(root_rotation=2 * np.eye(3))
+
+
 def test_clamping_respects_joint_limits(model):
     lim = model.link_model.dof_limits
     theta = np.full(29, 10.0)

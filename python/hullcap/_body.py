@@ -230,10 +230,20 @@ class BodyModel:
             theta = self._links.clamp(theta)
         root = _root(root_rotation, root_translation)
         v, n, centres, rotations = self._rig.pose(theta, *root, threads)
+        return Pose(v, n, self._joints(centres, rotations), rotations, centres)
+
+    def joints(self, theta=None, root_rotation=None, root_translation=None, clamp: bool = True) -> np.ndarray:
+        """The (J, 3) world positions of :attr:`joint_names` at a pose, as :meth:`pose`
+        gives them, without posing the mesh."""
+        theta = self._theta(theta)
+        if clamp:
+            theta = self._links.clamp(theta)
+        return self._joints(*self._rig.frames(theta, *_root(root_rotation, root_translation)))
+
+    def _joints(self, centres: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+        """The joints of links at world `centres` (L, 3) turned by `rotations` (L, 3, 3)."""
         rest = self._links.joint_points - self._links.origins[self._links.joint_links]
-        joints = centres[self._links.joint_links] + np.einsum(
-            "jab,jb->ja", rotations[self._links.joint_links], rest)
-        return Pose(v, n, joints, rotations, centres)
+        return centres[self._links.joint_links] + np.einsum("jab,jb->ja", rotations[self._links.joint_links], rest)
 
     def jacobian(self, theta=None, root_rotation=None, root_translation=None,
                  threads: int | None = None) -> np.ndarray:

@@ -176,6 +176,14 @@ class Rig:
     ]:
         """(vertices (V, 3), normals (V, 3), joint centres (L, 3), link rotations (L, 3, 3)),
         world frame: world = R·body + t."""
+    def frames(
+        self,
+        theta: list[float] | npt.NDArray[np.float64],
+        root_rotation: npt.ArrayLike | None = None,
+        root_translation: npt.ArrayLike | None = None,
+    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """(joint centres (L, 3), link rotations (L, 3, 3)) as ``pose`` gives them, without
+        posing the mesh."""
     def jacobian(
         self,
         theta: list[float] | npt.NDArray[np.float64],

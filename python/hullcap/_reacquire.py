@@ -198,7 +198,7 @@ class PoseSearch:
         """Whether every arm's line (shoulder to wrist) of `after` lies within
         ``options.girdle_turn`` of that of `before`: a fit from :meth:`girdle_start`
         counts only then."""
-        a, b = (self.model.pose(p.theta, p.root_rotation, p.root_translation).joints for p in (before, after))
+        a, b = (self.model.joints(p.theta, p.root_rotation, p.root_translation) for p in (before, after))
         for shoulder, wrist in self._arms:
             u, v = a[wrist] - a[shoulder], b[wrist] - b[shoulder]
             cos = u @ v / max(np.linalg.norm(u) * np.linalg.norm(v), 1e-12)

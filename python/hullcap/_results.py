@@ -106,8 +106,8 @@ class TrackingResult:
             result.joints = np.asarray(a["joints"], float)
         else:
             for f in np.flatnonzero(~result.failed):
-                result.joints[f] = model.pose(result.theta[f], result.root_rotation[f],
-                                              result.root_translation[f], clamp=False).joints
+                result.joints[f] = model.joints(result.theta[f], result.root_rotation[f],
+                                                result.root_translation[f], clamp=False)
         return result
 
     def pose(self, frame: int) -> PoseParameters:
@@ -120,7 +120,7 @@ class TrackingResult:
         p = result.pose
         self.theta[frame], self.root_rotation[frame], self.root_translation[frame] = \
             p.theta, p.root_rotation, p.root_translation
-        self.joints[frame] = self.model.pose(p.theta, p.root_rotation, p.root_translation).joints
+        self.joints[frame] = self.model.joints(p.theta, p.root_rotation, p.root_translation)
         self.status[frame] = status
         for k in STATS:
             getattr(self, k)[frame] = getattr(result, k)

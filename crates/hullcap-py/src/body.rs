@@ -5,7 +5,7 @@ use crate::call::ArrayError;
 use crate::call::detached;
 use hullcap_body::{
     BodyError, Dof, Rig as EngineRig, RootPose, Shape as EngineShape, ShapeParameter, Skeleton,
-    SkinWeightOptions, SkinWeights,
+    SkeletonPose, SkinWeightOptions, SkinWeights,
 };
 use nalgebra::{Matrix3, Vector3};
 use numpy::{PyArray1, PyArrayMethods};
@@ -120,6 +120,32 @@ pub(crate) fn link_distances<'py>(
 #[pyclass(module = "hullcap._engine", name = "Rig", frozen)]
 pub(crate) struct Rig {
     pub(crate) rig: EngineRig,
+}
+
+/// A skeleton's joint centres (L, 3) and link rotations (L, 3, 3), moved by `root` into
+/// the world.
+fn world_frames<'py>(
+    py: Python<'py>,
+    skeleton: &SkeletonPose,
+    root: &RootPose,
+) -> PyResult<(F64Array<'py>, F64Array<'py>)> {
+    let centres: Vec<[f64; 3]> = skeleton
+        .position
+        .iter()
+        .map(|p| (root.rotation * p + root.translation).into())
+        .collect();
+    let rotations: Vec<[f64; 9]> = skeleton
+        .rotation
+        .iter()
+        .map(|r| {
+            let w = root.rotation * r;
+            std::array::from_fn(|i| w[(i / 3, i % 3)])
+        })
+        .collect();
+    Ok((
+        to_numpy(py, &centres, &[3])?,
+        to_numpy(py, &rotations, &[3, 3])?,
+    ))
 }
 
 pub(crate) fn root_pose(
@@ -257,27 +283,31 @@ impl Rig {
         let root = root_pose(root_rotation, root_translation)?;
         let threads = arrays::threads(threads)?;
         let posed = detached(py, || self.rig.pose(&theta, &root, threads))?;
-        let joints: Vec<[f64; 3]> = posed
-            .skeleton
-            .position
-            .iter()
-            .map(|p| (root.rotation * p + root.translation).into())
-            .collect();
-        let rotations: Vec<[f64; 9]> = posed
-            .skeleton
-            .rotation
-            .iter()
-            .map(|r| {
-                let w = root.rotation * r;
-                std::array::from_fn(|i| w[(i / 3, i % 3)])
-            })
-            .collect();
+        let (centres, rotations) = world_frames(py, &posed.skeleton, &root)?;
         Ok((
             to_numpy(py, &posed.vertices, &[3])?,
             to_numpy(py, &posed.normals, &[3])?,
-            to_numpy(py, &joints, &[3])?,
-            to_numpy(py, &rotations, &[3, 3])?,
+            centres,
+            rotations,
         ))
+    }
+
+    /// The links alone, as :meth:`pose` gives them without the mesh: (joint centres
+    /// (L, 3), link rotations (L, 3, 3)) in the world frame.
+    #[pyo3(signature = (theta, root_rotation=None, root_translation=None))]
+    fn frames<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Vec<f64>,
+        root_rotation: Option<&Bound<'py, PyAny>>,
+        root_translation: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<(F64Array<'py>, F64Array<'py>)> {
+        let root = root_pose(root_rotation, root_translation)?;
+        let skeleton = detached(py, || {
+            root.validate()?;
+            self.rig.skeleton().forward(&theta)
+        })?;
+        world_frames(py, &skeleton, &root)
     }
 
     /// ∂(world vertex)/∂(parameter), shape (V, 6 + n_dofs, 3); parameters ordered
