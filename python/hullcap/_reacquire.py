@@ -71,13 +71,14 @@ class SearchOptions:
         chain_samples: joint-angle draws per limb chain.
         screen: candidates a rough scoring passes on to the scoring proper (the pose to
             beat always goes on too); 0 scores every candidate in full. Ranking the
-            candidates was most of a search's time, and on the development set searches
-            mostly confirm the tracked fit, whose candidates are scored only to be set
-            aside. The scoring proper gives each candidate that passes the numbers it
-            would get alone, so only a candidate the screen drops can change a search's
-            outcome. In 24 rankings of four d01 frames' searches the tracked fit came
-            first every time (nothing to fit), and the screen of 8 passed on both
-            candidates ranked next to it in 21, one of them in 1 and neither in 2.
+            candidates was most of a search's time, and on the development set the
+            searches confirm the tracked fit (none re-acquired a frame in the table of
+            record), their candidates scored only to be set aside. The scoring proper
+            gives each candidate that passes the numbers it would get alone, so only a
+            candidate the screen drops can change a search's outcome. In 24 rankings of
+            four d01 frames' searches the tracked fit came first every time (nothing to
+            fit), and the screen of 8 passed on both candidates ranked next to it in 21,
+            one of them in 1 and neither in 2.
         screen_coarse: the rough scoring counts a ``screen_coarse``-th of the model points,
             hull samples and model vertices of the scoring proper (with the default fit
             187 model points and hull samples instead of 750, 375 vertices instead of
