@@ -3,9 +3,9 @@
 //! Work is split into one contiguous chunk per thread; each thread gets a disjoint
 //! `&mut` slice of the output, so no locks are needed. Threads are joined explicitly, and
 //! a panic in any of them is returned as [`WorkerPanicked`] instead of being re-raised.
-//! Inside [`with_workers`](crate::with_workers) the work goes to its team of threads
-//! instead of threads started for the call, in a few smaller chunks per member claimed by
-//! whichever is free (`team.rs`).
+//! Inside [`with_workers`](crate::with_workers) the chunks go to its team of threads
+//! instead of threads started for the call, each claimed by whichever member is free
+//! (`team.rs`).
 
 use std::num::NonZeroUsize;
 use std::sync::Mutex;
@@ -15,9 +15,6 @@ use std::thread;
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("an engine worker thread panicked: {0}")]
 pub struct WorkerPanicked(pub String);
-
-/// Chunks per member of a team ([`with_workers`](crate::with_workers)) in a call it runs.
-const CHUNKS_PER_MEMBER: usize = 2;
 
 /// The environment variable that caps the engine's threads when a call does not say how
 /// many (a batch worker given one core sets it to 1, docs/batch.md).
@@ -82,14 +79,11 @@ where
     if chunks <= 1 {
         return run_caught(|| f(0, out));
     }
-    if let Some((team, members)) = crate::team::available() {
-        // Smaller chunks, each claimed by whichever member of the team is free: a member
-        // whose core the system gives to other work for a while (another thread reading
-        // the next frame) then leaves its share to the others instead of holding up the
-        // call. Every caller computes each item on its own, so the chunks do not change
-        // the results.
-        let chunks = (chunks.min(members) * CHUNKS_PER_MEMBER).min(max_chunks);
-        let chunk_len = n.div_ceil(chunks);
+    let chunk_len = n.div_ceil(chunks);
+    if let Some(team) = crate::team::available() {
+        // The same chunks, each claimed by whichever member of the team is free: a member
+        // the system has not yet scheduled (its core busy with another thread, reading
+        // the next frame) leaves its chunk to the others instead of holding up the call.
         let slots: Vec<Mutex<Option<&mut [T]>>> = out
             .chunks_mut(chunk_len)
             .map(|c| Mutex::new(Some(c)))
@@ -102,7 +96,6 @@ where
         };
         return team.run(slots.len(), &job);
     }
-    let chunk_len = n.div_ceil(chunks);
     thread::scope(|scope| {
         let f = &f;
         let (first, rest) = out.split_at_mut(chunk_len);

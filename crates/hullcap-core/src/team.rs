@@ -6,9 +6,9 @@
 //! a thread costs about 40 µs (docs/performance.md): a sixth of a fit. [`with_workers`]
 //! starts the threads once, on one `std::thread::scope` around the whole stretch, and
 //! every `for_each_chunk_mut` made on the calling thread inside it hands its chunks to
-//! them instead: a few per member, each claimed by whichever member is free, so that one
-//! whose core is busy elsewhere does not hold up the others. Every item is computed on
-//! its own, so the results are the same to the bit however the chunks fall.
+//! them instead: the same chunks, so the same results to the bit, each claimed by
+//! whichever member is free, so that one whose core is busy elsewhere leaves its chunk to
+//! the others instead of holding them up.
 //!
 //! Handing a chunk to a thread that outlives the call means passing it a borrow that the
 //! type system cannot see ending before the thread does. That is the one place of the
@@ -62,15 +62,14 @@ pub fn with_workers<R>(threads: usize, body: impl FnOnce() -> R) -> R {
     })
 }
 
-/// The team running on this thread, with its number of members, when it can take a call:
-/// it is not already running a job (a chunk that itself makes a parallel call starts
-/// threads of its own).
-pub(crate) fn available() -> Option<(Arc<Team>, usize)> {
+/// The team running on this thread when it can take a call: it is not already running a
+/// job (a chunk that itself makes a parallel call starts threads of its own).
+pub(crate) fn available() -> Option<Arc<Team>> {
     CURRENT.with(|c| {
         c.borrow()
             .as_ref()
             .filter(|team| !team.busy.load(Ordering::Relaxed))
-            .map(|team| (Arc::clone(team), team.workers + 1))
+            .cloned()
     })
 }
 
@@ -282,28 +281,19 @@ mod tests {
         assert!(ids(&teamed).contains(&thread::current().id()));
     }
 
-    /// A member held up in its chunk leaves the others to the caller, which claims them
-    /// instead of waiting for it; every chunk still runs once.
+    /// A member that has not started (here one whose thread never runs) leaves its chunk
+    /// to the caller, which runs every chunk once and returns without it.
     #[test]
-    fn a_member_held_up_leaves_its_share_to_the_others() {
-        let caller = thread::current().id();
-        let mut out = vec![None; 64];
-        with_workers(2, || {
-            for_each_chunk_mut(&mut out, 2, 1, |offset, chunk| {
-                if thread::current().id() != caller {
-                    thread::sleep(std::time::Duration::from_millis(50));
-                }
-                for (i, slot) in chunk.iter_mut().enumerate() {
-                    *slot = Some((offset + i, thread::current().id()));
-                }
-            })
-            .unwrap();
-        });
-        let items: Vec<usize> = out.iter().map(|s| s.unwrap().0).collect();
-        assert_eq!(items, (0..64).collect::<Vec<_>>());
-        let by_caller = out.iter().filter(|s| s.unwrap().1 == caller).count();
-        // Eight chunks of 8: the worker, asleep in the one it claimed, runs at most that.
-        assert!(by_caller >= 56, "{by_caller} of 64 by the caller");
+    fn a_member_that_has_not_started_leaves_its_chunk_to_the_others() {
+        let team = Team::new(1);
+        let runs: Vec<AtomicUsize> = (0..2).map(|_| AtomicUsize::new(0)).collect();
+        team.run(2, &|k| {
+            runs[k].fetch_add(1, Ordering::Relaxed);
+        })
+        .unwrap();
+        let counts: Vec<usize> = runs.iter().map(|r| r.load(Ordering::Relaxed)).collect();
+        assert_eq!(counts, [1, 1]);
+        assert!(!team.busy.load(Ordering::Relaxed));
     }
 
     #[test]
