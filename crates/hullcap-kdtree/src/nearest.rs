@@ -104,17 +104,14 @@ impl NormalKdTree {
             threads,
             || (),
             |_, i, q, row| {
-                let mut best = Best {
-                    dist2: gate.radius2,
-                    slot: u32::MAX,
-                };
+                let mut start = Best::within(gate.radius2);
                 if let Some(slot) = hint(i) {
                     let d2 = dist2(q, &self.keys[slot as usize]);
-                    if d2 < best.dist2 {
-                        best = Best { dist2: d2, slot };
+                    if d2 < start.dist2 {
+                        start = Best { dist2: d2, slot };
                     }
                 }
-                self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
+                let best = self.nearest_from(q, start);
                 row[0] = if best.slot == u32::MAX || !gate.passes(q, &self.keys[best.slot as usize])
                 {
                     Neighbor::NONE
@@ -158,17 +155,16 @@ impl NormalKdTree {
             threads,
             || (),
             |_, i, q, row| {
-                row[0] = self.nearest_within(q, within[i] * within[i]).neighbor(self);
+                row[0] = self
+                    .nearest_from(q, Best::within(within[i] * within[i]))
+                    .neighbor(self);
             },
         )
     }
 
-    /// The nearest key to `q` strictly within the squared 6-D distance `radius2`.
-    fn nearest_within(&self, q: &Key, radius2: f64) -> Best {
-        let mut best = Best {
-            dist2: radius2,
-            slot: u32::MAX,
-        };
+    /// The nearest key to `q` that beats `best` (the search's first bound and answer),
+    /// or `best` itself when none does.
+    fn nearest_from(&self, q: &Key, mut best: Best) -> Best {
         self.descend(0, q, &mut [0.0; 6], 0.0, &mut best);
         best
     }
@@ -195,6 +191,15 @@ struct Best {
 }
 
 impl Best {
+    /// Nothing found yet, and only a key strictly within the squared 6-D distance
+    /// `radius2` will do.
+    fn within(radius2: f64) -> Best {
+        Best {
+            dist2: radius2,
+            slot: u32::MAX,
+        }
+    }
+
     /// The key found as the caller's index and its distance; none when none was.
     fn neighbor(self, tree: &NormalKdTree) -> Neighbor {
         if self.slot == u32::MAX {
