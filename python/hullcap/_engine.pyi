@@ -446,6 +446,7 @@ def gaussian_blur(
 def isosurface(
     field: npt.ArrayLike,
     level: float,
+    threads: int | None = None,
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int64], npt.NDArray[np.float64]]:
     """The closed triangle mesh where a 3-D field crosses `level` (marching cubes whose
     polygons are worked out from each cube's faces; see docs/design.md §7).
@@ -458,6 +459,9 @@ def isosurface(
     Args:
         field: (nx, ny, nz) values, at least 2 per axis (converted to float32).
         level: the value of the surface.
+        threads: worker threads, each marching a run of slabs along the first axis;
+            ``None`` = $HULLCAP_THREADS if set, else all cores. The mesh is the same, in
+            the same order, on any number.
 
     Returns:
         ``(vertices, faces, normals)``: (V, 3) positions in grid units (index (i, j, k)

@@ -272,12 +272,13 @@ pub(crate) fn gaussian_blur<'py>(
 /// The surface where a 3-D field crosses a level, in grid units; see
 /// `hullcap._engine.pyi`.
 #[pyfunction]
-#[pyo3(signature = (field, level))]
+#[pyo3(signature = (field, level, threads=None))]
 #[allow(clippy::type_complexity)]
 pub(crate) fn isosurface<'py>(
     py: Python<'py>,
     field: &Bound<'py, PyAny>,
     level: f64,
+    threads: Option<i64>,
 ) -> PyResult<(
     Bound<'py, PyArrayDyn<f64>>,
     Bound<'py, PyArrayDyn<i64>>,
@@ -290,7 +291,10 @@ pub(crate) fn isosurface<'py>(
     }
     let (field, shape) = contiguous::<f32, 3>(field, "float32", "field", "(nx, ny, nz)")?;
     let values = field.as_slice().unwrap_or(&[]);
-    let surface = detached(py, || hullcap_raster::isosurface(values, shape, level))?;
+    let threads = arrays::threads(threads)?;
+    let surface = detached(py, || {
+        hullcap_raster::isosurface(values, shape, level, threads)
+    })?;
     let rows = |r: Vec<[f64; 3]>| {
         let n = r.len();
         PyArray1::from_vec(py, r.into_flattened()).reshape(vec![n, 3])

@@ -18,8 +18,17 @@
 //! gradient turned to point to the lower values: along its edge, the difference of the
 //! edge's two values (the slope of the interpolation that placed the vertex); across it,
 //! central differences (one-sided at the border) at the edge's two ends, interpolated.
+//!
+//! The cubes are marched slab by slab along the first axis, and on several threads the
+//! slabs are shared out in runs, one per thread. A run's first plane is its seam with the
+//! run before, which makes every vertex on that plane (each crossing edge there belongs to
+//! cubes on both sides); the later run computes such a vertex only to place the centroids
+//! of its own polygons and refers to it by a mark, and the runs are joined in order with
+//! the marks replaced by the earlier run's numbers. The vertices, faces and normals are
+//! those of one thread, in the same order, to the bit.
 
 use crate::RasterError;
+use hullcap_core::{for_each_chunk_mut, resolve_threads};
 
 /// A triangle mesh in grid units: vertex (x, y, z) is the point at index (x, y, z) of the
 /// field's first, second and third axes.
@@ -244,64 +253,148 @@ fn cover(polygon: &[u8], out: &mut Pattern) {
     }
 }
 
-/// Vertex indices (plus one; 0 = none yet) of the grid edges in one plane of constant
-/// first index: along the second axis and along the third, each at `j · nz + k`.
+/// Which points of one plane lie above the level (1 or 0, at `j · nz + k`), and for each
+/// row j whether some and whether all of them do (so that a row of cubes between two
+/// planes wholly above or below is skipped by four lookups).
+#[derive(Debug, Default)]
+struct Signs {
+    above: Vec<u8>,
+    rows: Vec<(u8, u8)>,
+}
+
+/// Vertex numbers (plus one; 0 = none yet) of a set of grid edges, at `j · nz + k`, and
+/// which of them are set: a slab sets a few hundred of its tens of thousands, and
+/// clearing those alone spares the memory traffic of clearing every one.
+#[derive(Debug, Clone)]
+struct Slots {
+    ids: Vec<u32>,
+    touched: Vec<usize>,
+}
+
+impl Slots {
+    fn new(n: usize) -> Self {
+        Self {
+            ids: vec![0; n],
+            touched: Vec::new(),
+        }
+    }
+
+    fn set(&mut self, at: usize, id: u32) {
+        self.ids[at] = id + 1;
+        self.touched.push(at);
+    }
+
+    fn clear(&mut self) {
+        for &at in &self.touched {
+            self.ids[at] = 0;
+        }
+        self.touched.clear();
+    }
+}
+
+/// The grid edges in one plane of constant first index: along the second axis and along
+/// the third.
 #[derive(Debug, Clone)]
 struct Plane {
-    along_y: Vec<u32>,
-    along_z: Vec<u32>,
+    along_y: Slots,
+    along_z: Slots,
 }
 
 impl Plane {
     fn new(n: usize) -> Self {
         Self {
-            along_y: vec![0; n],
-            along_z: vec![0; n],
+            along_y: Slots::new(n),
+            along_z: Slots::new(n),
         }
     }
 
     fn clear(&mut self) {
-        self.along_y.fill(0);
-        self.along_z.fill(0);
+        self.along_y.clear();
+        self.along_z.clear();
     }
 }
 
 /// The surface where `field` (row-major, shape `shape`, the last axis fastest) crosses
-/// `level`; see the module documentation.
+/// `level`; see the module documentation. Threads: `None` = all cores; the surface does
+/// not depend on them.
 ///
 /// # Errors
 /// [`RasterError::FieldSize`] when `field` does not hold `shape`'s values or an axis has
-/// fewer than two points, or the grid has too many edges to number in 32 bits.
-pub fn isosurface(field: &[f32], shape: [usize; 3], level: f64) -> Result<Isosurface, RasterError> {
+/// fewer than two points, or the grid has too many edges to number in 32 bits;
+/// [`RasterError::Panicked`] when a worker thread panicked.
+pub fn isosurface(
+    field: &[f32],
+    shape: [usize; 3],
+    level: f64,
+    threads: Option<usize>,
+) -> Result<Isosurface, RasterError> {
     let [nx, ny, nz] = shape;
     let n = nx.checked_mul(ny).and_then(|p| p.checked_mul(nz));
-    let too_many = n.is_none_or(|n| n.saturating_mul(3) >= u32::MAX as usize);
+    let too_many = n.is_none_or(|n| n.saturating_mul(3) >= SEAM as usize);
     if shape.iter().any(|&s| s < 2) || too_many || n != Some(field.len()) {
         return Err(RasterError::FieldSize {
             len: field.len(),
             shape,
         });
     }
-    let mut marcher = Marcher {
-        field,
-        shape,
-        level,
-        cases: cases(),
-        planes: [Plane::new(ny * nz), Plane::new(ny * nz)],
-        along_x: vec![0; ny * nz],
-        out: Isosurface::default(),
-    };
-    let (mut lower, mut upper) = (Vec::new(), Vec::new());
-    marcher.above(0, &mut lower);
-    for i in 0..nx - 1 {
-        marcher.above(i + 1, &mut upper);
-        marcher.slab(i, &lower, &upper);
-        std::mem::swap(&mut lower, &mut upper);
-        marcher.planes.swap(0, 1);
-        marcher.planes[1].clear();
-        marcher.along_x.fill(0);
+    let slabs = nx - 1;
+    let runs = resolve_threads(threads).min(slabs / MIN_RUN_SLABS).max(1);
+    let mut marched: Vec<Option<Run>> = vec![None; runs];
+    for_each_chunk_mut(&mut marched, runs, 1, |r, out| {
+        let (first, last) = (r * slabs / runs, (r + 1) * slabs / runs);
+        out[0] = Some(Marcher::new(field, shape, level, first).march(first..last));
+    })?;
+    Ok(join(marched.into_iter().flatten().collect()))
+}
+
+/// Slabs a run must have at least before the work is shared out: below it, starting a
+/// thread costs about what it saves.
+const MIN_RUN_SLABS: usize = 16;
+
+/// The mark of a vertex on a run's first plane (which the run before makes): this bit
+/// and the vertex's place in [`Run::seam`].
+const SEAM: u32 = 1 << 31;
+
+/// What one run of slabs makes: its own vertices and faces (faces may refer to marked
+/// seam vertices), the seam vertices it refers to (the axis and place of their edge on
+/// its first plane), and the vertex numbers (plus one) of the edges on its last plane.
+#[derive(Debug, Clone)]
+struct Run {
+    surface: Isosurface,
+    seam: Vec<(usize, usize)>,
+    last_plane: Plane,
+}
+
+/// The runs' surfaces one after another, each run's marks replaced by the numbers the
+/// run before gave those vertices.
+fn join(runs: Vec<Run>) -> Isosurface {
+    let mut out = Isosurface::default();
+    let mut before: Option<(u32, &Plane)> = None;
+    for run in &runs {
+        let offset = out.vertices.len() as u32;
+        let number = |v: u32| -> u32 {
+            let Some((start, plane)) = before.filter(|_| v & SEAM != 0) else {
+                return v + offset; // unmarked (the first run has no seam)
+            };
+            let (axis, at) = run.seam[(v & !SEAM) as usize];
+            let slot = if axis == 1 {
+                plane.along_y.ids[at]
+            } else {
+                plane.along_z.ids[at]
+            };
+            assert!(
+                slot != 0,
+                "the run before makes every crossing edge of its last plane"
+            );
+            start + slot - 1
+        };
+        out.faces
+            .extend(run.surface.faces.iter().map(|face| face.map(number)));
+        out.vertices.extend_from_slice(&run.surface.vertices);
+        out.normals.extend_from_slice(&run.surface.normals);
+        before = Some((offset, &run.last_plane));
     }
-    Ok(marcher.out)
+    out
 }
 
 struct Marcher<'a> {
@@ -309,47 +402,101 @@ struct Marcher<'a> {
     shape: [usize; 3],
     level: f64,
     cases: &'static Cases,
+    /// The run's first plane: a seam whose vertices the run before makes (none for 0).
+    first: usize,
     /// The edges in the planes i and i + 1 of the slab being marched.
     planes: [Plane; 2],
     /// The edges from plane i to plane i + 1, at `j · nz + k`.
-    along_x: Vec<u32>,
+    along_x: Slots,
     out: Isosurface,
+    /// The seam's vertices this run refers to: their edges, positions and normals.
+    seam: Vec<(usize, usize)>,
+    seam_points: Vec<([f64; 3], [f64; 3])>,
 }
 
-impl Marcher<'_> {
+impl<'a> Marcher<'a> {
+    fn new(field: &'a [f32], shape: [usize; 3], level: f64, first: usize) -> Self {
+        let [_, ny, nz] = shape;
+        Marcher {
+            field,
+            shape,
+            level,
+            cases: cases(),
+            first,
+            planes: [Plane::new(ny * nz), Plane::new(ny * nz)],
+            along_x: Slots::new(ny * nz),
+            out: Isosurface::default(),
+            seam: Vec::new(),
+            seam_points: Vec::new(),
+        }
+    }
+
+    /// Marches the slabs `slabs` (between planes i and i + 1 for each i).
+    fn march(mut self, slabs: std::ops::Range<usize>) -> Run {
+        let (mut lower, mut upper) = (Signs::default(), Signs::default());
+        self.above(slabs.start, &mut lower);
+        for i in slabs {
+            self.above(i + 1, &mut upper);
+            self.slab(i, &lower, &upper);
+            std::mem::swap(&mut lower, &mut upper);
+            self.planes.swap(0, 1);
+            self.planes[1].clear();
+            self.along_x.clear();
+        }
+        let [last_plane, _] = self.planes;
+        Run {
+            surface: self.out,
+            seam: self.seam,
+            last_plane,
+        }
+    }
+
     fn at(&self, p: [usize; 3]) -> f64 {
         let [_, ny, nz] = self.shape;
         f64::from(self.field[(p[0] * ny + p[1]) * nz + p[2]])
     }
 
-    /// Which points of plane `i` are above the level (1) or not (0), at `j · nz + k`.
-    fn above(&self, i: usize, out: &mut Vec<u8>) {
+    /// Which points of plane `i` are above the level, and which of its rows have some or
+    /// all of their points above.
+    fn above(&self, i: usize, out: &mut Signs) {
         let [_, ny, nz] = self.shape;
         let plane = &self.field[i * ny * nz..(i + 1) * ny * nz];
-        out.clear();
-        out.extend(plane.iter().map(|&v| u8::from(f64::from(v) > self.level)));
+        out.above.clear();
+        out.above
+            .extend(plane.iter().map(|&v| u8::from(f64::from(v) > self.level)));
+        out.rows.clear();
+        out.rows.extend(
+            out.above
+                .chunks_exact(nz)
+                .map(|row| row.iter().fold((0, 1), |(s, a), &b| (s | b, a & b))),
+        );
     }
 
     /// The cubes between planes i and i + 1 (whose points above the level are `lower`
     /// and `upper`), skipping those wholly above or not.
-    fn slab(&mut self, i: usize, lower: &[u8], upper: &[u8]) {
+    fn slab(&mut self, i: usize, lower: &Signs, upper: &Signs) {
         let [_, ny, nz] = self.shape;
         for j in 0..ny - 1 {
-            let (near_row, far_row) = (j * nz..(j + 1) * nz, (j + 1) * nz..(j + 2) * nz);
-            // Bit dx + 2·dy of a column is that corner of the cube's square.
-            let rows = [
-                &lower[near_row.clone()],
-                &upper[near_row],
-                &lower[far_row.clone()],
-                &upper[far_row],
+            let corners = [
+                lower.rows[j],
+                upper.rows[j],
+                lower.rows[j + 1],
+                upper.rows[j + 1],
             ];
-            let (some, all) = rows.iter().fold((0, 1), |(some, all), row| {
-                let (s, a) = row.iter().fold((0, 1), |(s, a), &b| (s | b, a & b));
-                (some | s, all & a)
-            });
+            let (some, all) = corners
+                .iter()
+                .fold((0, 1), |(some, all), &(s, a)| (some | s, all & a));
             if some == all {
                 continue; // every point of the row's cubes is above, or none is
             }
+            let (near_row, far_row) = (j * nz..(j + 1) * nz, (j + 1) * nz..(j + 2) * nz);
+            // Bit dx + 2·dy of a column is that corner of the cube's square.
+            let rows = [
+                &lower.above[near_row.clone()],
+                &upper.above[near_row],
+                &lower.above[far_row.clone()],
+                &upper.above[far_row],
+            ];
             let column = |k: usize| {
                 usize::from(rows[0][k])
                     | usize::from(rows[1][k]) << 1
@@ -401,15 +548,15 @@ impl Marcher<'_> {
     /// Triangles from a new vertex at the centroid of `polygon` to each of its sides.
     fn fan_from_centroid(&mut self, polygon: &[u32]) {
         let n = polygon.len();
-        let mean = |items: &[[f64; 3]]| -> [f64; 3] {
+        let mean = |normals: bool| -> [f64; 3] {
             let sum = polygon.iter().fold([0.0; 3], |acc, &v| {
-                let x = items[v as usize];
+                let x = self.point(v, normals);
                 [acc[0] + x[0], acc[1] + x[1], acc[2] + x[2]]
             });
             sum.map(|v| v / n as f64)
         };
-        let centre = mean(&self.out.vertices);
-        let normal = unit(mean(&self.out.normals));
+        let centre = mean(false);
+        let normal = unit(mean(true));
         let apex = self.out.vertices.len() as u32;
         self.out.vertices.push(centre);
         self.out.normals.push(normal);
@@ -418,6 +565,20 @@ impl Marcher<'_> {
                 .faces
                 .push([apex, polygon[m], polygon[(m + 1) % n]]);
         }
+    }
+
+    /// The position (or with `normal`, the normal) of vertex `v`, marked or not.
+    fn point(&self, v: u32, normal: bool) -> [f64; 3] {
+        if v & SEAM != 0 {
+            let (position, n) = self.seam_points[(v & !SEAM) as usize];
+            return if normal { n } else { position };
+        }
+        let items = if normal {
+            &self.out.normals
+        } else {
+            &self.out.vertices
+        };
+        items[v as usize]
     }
 
     /// Whether a face whose above corners sit on a diagonal joins them: the bilinear
@@ -438,16 +599,21 @@ impl Marcher<'_> {
         let p = corner_of(origin, c);
         let at = p[1] * self.shape[2] + p[2];
         let plane = p[0] - origin[0];
-        let slot = match axis {
-            0 => &mut self.along_x[at],
-            1 => &mut self.planes[plane].along_y[at],
-            _ => &mut self.planes[plane].along_z[at],
+        let on_seam = axis != 0 && self.first > 0 && p[0] == self.first;
+        let id = if on_seam {
+            SEAM | self.seam.len() as u32
+        } else {
+            self.out.vertices.len() as u32
         };
-        if *slot != 0 {
-            return *slot - 1;
+        let slots = match axis {
+            0 => &mut self.along_x,
+            1 => &mut self.planes[plane].along_y,
+            _ => &mut self.planes[plane].along_z,
+        };
+        if slots.ids[at] != 0 {
+            return slots.ids[at] - 1;
         }
-        let id = self.out.vertices.len() as u32;
-        *slot = id + 1;
+        slots.set(at, id);
         let mut q = p;
         q[axis] += 1;
         let (fp, fq) = (self.at(p), self.at(q));
@@ -457,8 +623,13 @@ impl Marcher<'_> {
         let (gp, gq) = (self.gradient(p), self.gradient(q));
         let mut g: [f64; 3] = std::array::from_fn(|d| -(gp[d] + t * (gq[d] - gp[d])));
         g[axis] = fp - fq;
-        self.out.vertices.push(position);
-        self.out.normals.push(unit(g));
+        if on_seam {
+            self.seam.push((axis, at));
+            self.seam_points.push((position, unit(g)));
+        } else {
+            self.out.vertices.push(position);
+            self.out.normals.push(unit(g));
+        }
         id
     }
 
@@ -551,7 +722,7 @@ mod tests {
         let centre = [11.2, 11.7, 12.1];
         let f = |p: [f64; 3]| r - dot(sub(p, centre), sub(p, centre)).sqrt();
         let field = sampled(n, f);
-        let s = isosurface(&field, [n, n, n], 0.0).unwrap();
+        let s = isosurface(&field, [n, n, n], 0.0, None).unwrap();
         assert_closed(&s);
         let exact = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
         assert!(
@@ -575,6 +746,41 @@ mod tests {
         }
     }
 
+    /// Shared out in runs of slabs, the surface is the one thread's to the bit: the same
+    /// vertices, normals and faces in the same order, with runs that meet where the
+    /// surface crosses their seam and polygons fanned from a centroid next to it.
+    #[test]
+    fn runs_on_threads_give_the_surface_of_one_thread() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut random = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let shape = [5 * MIN_RUN_SLABS + 3, 9, 8];
+        let [nx, ny, nz] = shape;
+        let mut field = vec![0f32; nx * ny * nz];
+        for x in 1..nx - 1 {
+            for y in 1..ny - 1 {
+                for z in 1..nz - 1 {
+                    field[(x * ny + y) * nz + z] = random() as f32;
+                }
+            }
+        }
+        let one = isosurface(&field, shape, 0.5, Some(1)).unwrap();
+        assert!(one.faces.len() > 1000);
+        let centred = one
+            .vertices
+            .iter()
+            .any(|v| v.iter().all(|c| c.fract() != 0.0));
+        assert!(centred, "some polygon is fanned from its centroid");
+        assert_closed(&one);
+        for threads in [2, 3, 5, 8] {
+            assert_eq!(isosurface(&field, shape, 0.5, Some(threads)).unwrap(), one);
+        }
+    }
+
     /// Random fields exercise every case, the ambiguous faces included: the mesh stays
     /// closed and wound one way, whatever the level.
     #[test]
@@ -594,7 +800,7 @@ mod tests {
                 if inner { random() } else { 0.0 }
             });
             let level = 0.2 + 0.6 * random();
-            let s = isosurface(&field, [n, n, n], level).unwrap();
+            let s = isosurface(&field, [n, n, n], level, Some(1)).unwrap();
             assert_closed(&s);
             assert!(volume(&s) > 0.0 || s.faces.is_empty());
             for &[a, b, c] in &s.faces {
@@ -622,8 +828,8 @@ mod tests {
         let mut field = vec![0.0f32; 64];
         field[(4 + 1) * 4 + 1] = 1.0;
         field[(4 + 2) * 4 + 2] = 1.0;
-        let joined = isosurface(&field, [4, 4, 4], 0.4).unwrap();
-        let apart = isosurface(&field, [4, 4, 4], 0.6).unwrap();
+        let joined = isosurface(&field, [4, 4, 4], 0.4, None).unwrap();
+        let apart = isosurface(&field, [4, 4, 4], 0.6, None).unwrap();
         assert_closed(&joined);
         assert_closed(&apart);
         assert_eq!(euler(&joined), 2, "one piece");
@@ -653,12 +859,12 @@ mod tests {
     #[test]
     fn bad_shapes_are_refused() {
         assert!(matches!(
-            isosurface(&[0.0; 8], [2, 2, 3], 0.5),
+            isosurface(&[0.0; 8], [2, 2, 3], 0.5, None),
             Err(RasterError::FieldSize { len: 8, .. })
         ));
-        assert!(isosurface(&[0.0; 4], [1, 2, 2], 0.5).is_err());
+        assert!(isosurface(&[0.0; 4], [1, 2, 2], 0.5, None).is_err());
         assert_eq!(
-            isosurface(&[0.0; 8], [2, 2, 2], 0.5).unwrap(),
+            isosurface(&[0.0; 8], [2, 2, 2], 0.5, None).unwrap(),
             Isosurface::default()
         );
     }

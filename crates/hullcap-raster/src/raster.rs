@@ -24,9 +24,9 @@ pub enum RasterError {
         height: usize,
     },
     /// A grid's values do not fill its shape, or (for an isosurface) an axis has fewer
-    /// than 2 points or the grid has 2^32 edges or more.
+    /// than 2 points or the grid has 2^31 edges or more.
     #[error(
-        "a grid of {len} values cannot have the shape {shape:?} (the values fill the shape; an isosurface needs 2 points per axis at least and fewer than 2^32 edges)"
+        "a grid of {len} values cannot have the shape {shape:?} (the values fill the shape; an isosurface needs 2 points per axis at least and fewer than 2^31 edges)"
     )]
     FieldSize {
         /// Its number of values.
