@@ -1,6 +1,7 @@
 //! The visual hull's carving test: cells against the views' silhouettes, in one pass.
 
 use crate::RasterError;
+use crate::whole::nearest;
 use hullcap_core::{for_each_chunk_mut, resolve_threads};
 
 /// A calibrated camera: x_cam = R·X + t, then OpenCV's distortion (k1, k2, p1, p2, k3) and
@@ -45,17 +46,6 @@ impl Camera {
             z,
         )
     }
-}
-
-/// `x` rounded to the nearest integer, ties to even, as `f64::round_ties_even` does for
-/// |x| < 2⁵¹ (beyond, the value is far outside any image anyway): adding and subtracting
-/// 1.5·2⁵² leaves no fractional bits, so the addition rounds in the default mode (to
-/// nearest, ties to even). `round_ties_even` itself compiles to a call of libm's `rint`
-/// on baseline x86-64 (no SSE4.1), twice per point and view.
-#[inline]
-fn nearest(x: f64) -> f64 {
-    const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 · 2⁵²
-    (x + SHIFT) - SHIFT
 }
 
 /// One view as the carving reads it: the camera and, row-major `width × height`, the
@@ -303,27 +293,6 @@ fn pixel_of(point: &[f64; 3], view: &CarveView<'_>) -> Option<(usize, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn nearest_rounds_like_round_ties_even() {
-        let mut values = vec![
-            0.0,
-            -0.0,
-            0.5,
-            1.5,
-            2.5,
-            -0.5,
-            -1.5,
-            -2.5,
-            0.49999999999999994,
-            1e15 + 0.5,
-        ];
-        values.extend((-4000..4000).map(|i| i as f64 * 0.25 + 0.001 * (i % 7) as f64));
-        values.extend((0..1000).map(|i| (i as f64 * 0.7919).sin() * 1e6));
-        for x in values {
-            assert_eq!(nearest(x), x.round_ties_even(), "x = {x}");
-        }
-    }
 
     /// A 3 × 3 image seen by a camera at the origin looking along +z (f = 10, centre at
     /// pixel (1, 1)): the middle pixel is inside by 2 pixels, the others outside by 1.

@@ -24,6 +24,7 @@ mod carve;
 mod isosurface;
 mod raster;
 mod smooth;
+mod whole;
 
 pub use carve::{Camera, CarveView, Carved, Verdict, carve, classify_cells};
 pub use isosurface::{Isosurface, isosurface};

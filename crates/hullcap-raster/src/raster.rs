@@ -1,5 +1,6 @@
 //! The rasteriser: bands of image rows in parallel, every band sees every triangle.
 
+use crate::whole::{ceil, floor};
 use hullcap_core::{WorkerPanicked, for_each_chunk_mut, resolve_threads};
 
 /// Why a rasterisation was refused.
@@ -222,10 +223,11 @@ fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -
     // from the image, or between two centres, end here before their edges are worked out.
     let lo = |d: usize| p.iter().map(|c| c[d]).fold(f64::INFINITY, f64::min);
     let hi = |d: usize| p.iter().map(|c| c[d]).fold(f64::NEG_INFINITY, f64::max);
-    let x0 = lo(0).ceil().max(0.0);
-    let y0 = lo(1).ceil().max(0.0);
-    let x1 = hi(0).floor().min(width as f64 - 1.0);
-    let y1 = hi(1).floor().min(height as f64 - 1.0);
+    // Beyond 2⁵¹ pixels the clamps decide whatever `ceil` and `floor` give.
+    let x0 = ceil(lo(0)).max(0.0);
+    let y0 = ceil(lo(1)).max(0.0);
+    let x1 = floor(hi(0)).min(width as f64 - 1.0);
+    let y1 = floor(hi(1)).min(height as f64 - 1.0);
     if x0 > x1 || y0 > y1 {
         return None;
     }
