@@ -746,18 +746,22 @@ mod tests {
         }
     }
 
+    /// Numbers in [0, 1) from a xorshift generator seeded with `state` (not 0).
+    fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     /// Shared out in runs of slabs, the surface is the one thread's to the bit: the same
     /// vertices, normals and faces in the same order, with runs that meet where the
     /// surface crosses their seam and polygons fanned from a centroid next to it.
     #[test]
     fn runs_on_threads_give_the_surface_of_one_thread() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut random = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = uniform(0x2545_f491_4f6c_dd1d);
         let shape = [5 * MIN_RUN_SLABS + 3, 9, 8];
         let [nx, ny, nz] = shape;
         let mut field = vec![0f32; nx * ny * nz];
@@ -785,13 +789,7 @@ mod tests {
     /// closed and wound one way, whatever the level.
     #[test]
     fn random_fields_give_closed_surfaces() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut random = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut random = uniform(0x9e37_79b9_7f4a_7c15);
         for trial in 0..40 {
             let n = 5 + trial % 4;
             // Zero on the border so that every surface closes inside the grid.
