@@ -411,6 +411,13 @@ def test_the_engines_isosurface_has_marching_cubes_vertices_and_is_closed(sigma,
     assert topology["components"] == ref_topology["components"]
     assert topology["volume"] == pytest.approx(ref_topology["volume"], rel=2e-3)
     np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0)
+    # Shared out among threads in runs of slabs, the same mesh in the same order.
+    assert field.shape[0] > 2 * 16
+    for threads in (1, 3):
+        for mine, theirs in zip(isosurface(field, 0.5, threads=threads), (vertices, faces, normals)):
+            np.testing.assert_array_equal(mine, theirs)
+    with pytest.raises(ValueError, match="threads"):
+        isosurface(field, 0.5, threads=0)
 
 
 def test_isosurface_normals_follow_the_surface_of_a_smoothed_ball():
