@@ -225,20 +225,20 @@ class BodyModel:
             root_translation: (3,) world position of the root joint (default 0).
             clamp: clamp `theta` into the joint limits first.
         """
-        theta = self._theta(theta)
-        if clamp:
-            theta = self._links.clamp(theta)
         root = _root(root_rotation, root_translation)
-        v, n, centres, rotations = self._rig.pose(theta, *root, threads)
+        v, n, centres, rotations = self._rig.pose(self._posable(theta, clamp), *root, threads)
         return Pose(v, n, self._joints(centres, rotations), rotations, centres)
 
     def joints(self, theta=None, root_rotation=None, root_translation=None, clamp: bool = True) -> np.ndarray:
         """The (J, 3) world positions of :attr:`joint_names` at a pose, as :meth:`pose`
         gives them, without posing the mesh."""
+        return self._joints(*self._rig.frames(self._posable(theta, clamp), *_root(root_rotation, root_translation)))
+
+    def _posable(self, theta, clamp: bool) -> np.ndarray:
+        """`theta` checked (the rest pose for ``None``), and clamped into the joint limits
+        when `clamp` says so."""
         theta = self._theta(theta)
-        if clamp:
-            theta = self._links.clamp(theta)
-        return self._joints(*self._rig.frames(theta, *_root(root_rotation, root_translation)))
+        return self._links.clamp(theta) if clamp else theta
 
     def _joints(self, centres: np.ndarray, rotations: np.ndarray) -> np.ndarray:
         """The joints of links at world `centres` (L, 3) turned by `rotations` (L, 3, 3)."""

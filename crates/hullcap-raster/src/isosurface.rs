@@ -599,21 +599,17 @@ impl<'a> Marcher<'a> {
         let p = corner_of(origin, c);
         let at = p[1] * self.shape[2] + p[2];
         let plane = p[0] - origin[0];
+        let known = self.slots(axis, plane).ids[at];
+        if known != 0 {
+            return known - 1;
+        }
         let on_seam = axis != 0 && self.first > 0 && p[0] == self.first;
         let id = if on_seam {
             SEAM | self.seam.len() as u32
         } else {
             self.out.vertices.len() as u32
         };
-        let slots = match axis {
-            0 => &mut self.along_x,
-            1 => &mut self.planes[plane].along_y,
-            _ => &mut self.planes[plane].along_z,
-        };
-        if slots.ids[at] != 0 {
-            return slots.ids[at] - 1;
-        }
-        slots.set(at, id);
+        self.slots(axis, plane).set(at, id);
         let mut q = p;
         q[axis] += 1;
         let (fp, fq) = (self.at(p), self.at(q));
@@ -631,6 +627,16 @@ impl<'a> Marcher<'a> {
             self.out.normals.push(unit(g));
         }
         id
+    }
+
+    /// The slots of the edges along `axis` in the slab's plane `plane` (0 or 1; the edges
+    /// along the first axis lie between the two).
+    fn slots(&mut self, axis: usize, plane: usize) -> &mut Slots {
+        match axis {
+            0 => &mut self.along_x,
+            1 => &mut self.planes[plane].along_y,
+            _ => &mut self.planes[plane].along_z,
+        }
     }
 
     /// The field's gradient at a grid point: central differences, one-sided at the border.
