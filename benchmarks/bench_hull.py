@@ -91,7 +91,7 @@ def devset_table(names, step: int) -> None:
 
         def silhouettes(f):
             pose = model.pose(result.theta[f], result.root_rotation[f], result.root_translation[f], clamp=False)
-            return [render_silhouette(cam, pose.vertices, model.faces) for cam in seq.cameras]
+            return [render_silhouette(cam, pose.vertices, model.faces, closed=model.closed) for cam in seq.cameras]
 
         stat = [StatisticalBackground(seq.background(i)) for i in range(len(seq.cameras))]
         mog = [Mog2Background(seq.background(i)) for i in range(len(seq.cameras))]

@@ -9,7 +9,7 @@ import pytest
 from hullcap import BodyModel, LinkModel
 from hullcap._fitting import PoseParameters, yaw_rotation
 from hullcap._links import STANDARD_LINKS
-from hullcap._mesh import check_closed
+from hullcap._mesh import check_closed, is_closed
 
 
 @pytest.fixture(scope="module")
@@ -77,6 +77,8 @@ def test_template_is_a_closed_person_sized_mesh(model):
     assert 5000 <= len(v) <= 10000
     topo = check_closed(v, f)
     assert topo["closed"] and topo["euler"] == 2 and topo["components"] == 1
+    assert model.closed and not is_closed(f[1:]) and not is_closed(np.concatenate([f, f[:1]]))
+    assert not is_closed(np.concatenate([f[:1, [0, 2, 1]], f[1:]]))  # one triangle turned over
     assert 0.05 < topo["volume"] < 0.09  # m³: 50–90 kg at the density of water
     height = np.ptp(v[:, 2])
     assert 1.70 < height < 1.80

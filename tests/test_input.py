@@ -10,7 +10,7 @@ from hullcap import Camera, Cameras
 from hullcap._cameras import ring
 from hullcap._hull import HullReport, visual_hull
 from hullcap._implicit import capsule_union_mesh, field_mesh
-from hullcap._mesh import check_closed
+from hullcap._mesh import check_closed, is_closed
 from hullcap._render import render_silhouette
 from hullcap._sequence import Sequence
 from hullcap._silhouette import StatisticalBackground, background_model
@@ -292,10 +292,12 @@ def test_a_silhouette_is_where_the_z_buffer_sees_the_mesh_and_grows_as_a_whole_i
 
     vertices, faces = capsule_union_mesh([((0.0, 0.0, 0.6), (0.1, 0.05, 1.4), 0.15),
                                           ((0.0, -0.2, 1.2), (0.0, 0.4, 1.25), 0.05)])
+    assert is_closed(faces)
     for cam in ring(6, 2.5, 1.2, width=160, height_px=120):
         seen = render_silhouette(cam, vertices, faces)
         assert seen.dtype == bool and seen.any() and not seen.all()
         assert np.array_equal(seen, render_depth(cam, vertices, faces)[1] >= 0)
+        assert np.array_equal(render_silhouette(cam, vertices, faces, closed=True), seen)  # a closed mesh
         for fraction in (0.01, 0.1, 0.5):
             r = max(1, round(fraction * cv2.boundingRect(seen.astype(np.uint8))[3]))
             whole = cv2.dilate(seen.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1,) * 2))

@@ -18,7 +18,7 @@ import numpy as np
 from hullcap._engine import Rig, skin_weights
 from hullcap._files import atomic_write
 from hullcap._links import DATA, LinkModel
-from hullcap._mesh import vertex_normals
+from hullcap._mesh import is_closed, vertex_normals
 from hullcap._shape import ShapeBasis
 from hullcap.errors import ModelError
 
@@ -159,6 +159,12 @@ class BodyModel:
     def faces(self) -> np.ndarray:
         """(T, 3) int64 triangles (a copy)."""
         return self._faces.copy()
+
+    @functools.cached_property
+    def closed(self) -> bool:
+        """Whether the mesh bounds a solid (:func:`~hullcap._mesh.is_closed`), as the
+        template's does: its silhouettes are then drawn from half its triangles."""
+        return is_closed(self._faces)
 
     @property
     def links(self) -> np.ndarray:

@@ -224,10 +224,18 @@ def coverage(
     height: int,
     near: float = 1e-3,
     threads: int | None = None,
+    closed: bool = False,
 ) -> npt.NDArray[np.uint8]:
     """The silhouette of triangles already projected into an image: (height, width) uint8,
     1 exactly where ``rasterize`` (same arguments) sees a triangle, 0 elsewhere; cheaper,
-    since no depth is computed."""
+    since no depth is computed.
+
+    ``closed``: the triangles bound a solid (every edge in two of them, wound oppositely)
+    lying wholly beyond ``near``. A line of sight through such a solid enters it through a
+    triangle of one winding in the image and leaves through one of the other, so only the
+    triangles of one winding are drawn: the same pixels for about half the work (short of
+    a pixel centre lying exactly on a corner, where rounding decides). An open mesh
+    drawn so shows holes."""
 
 @final
 class FitOptions:

@@ -15,7 +15,7 @@ import numpy as np
 from hullcap._files import atomic_write
 from hullcap.errors import ModelError
 
-__all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "read_mesh", "write_mesh"]
+__all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "is_closed", "read_mesh", "write_mesh"]
 
 
 @dataclass(frozen=True)
@@ -76,20 +76,29 @@ def check_closed(vertices: np.ndarray, faces: np.ndarray) -> dict:
     """
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
-    keys = directed[:, 0] * len(v) + directed[:, 1]
-    reverse = directed[:, 1] * len(v) + directed[:, 0]
-    unique_directed = np.unique(keys).size == keys.size
-    closed = bool(unique_directed and np.isin(reverse, keys).all())
-    undirected = np.unique(np.sort(directed, axis=1), axis=0)
+    undirected = np.unique(np.sort(_directed_edges(f), axis=1), axis=0)
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     return {
-        "closed": closed,
+        "closed": is_closed(f),
         "euler": int(len(np.unique(f)) - len(undirected) + len(f)),
         "components": _components(len(v), undirected),
         "volume": volume,
     }
+
+
+def is_closed(faces) -> bool:
+    """Whether every edge of the triangles `faces` is in exactly two of them, once in each
+    direction: the mesh is closed, manifold along its edges and consistently wound."""
+    directed = _directed_edges(np.asarray(faces, dtype=np.int64))
+    n = int(directed.max()) + 1 if directed.size else 0
+    keys = directed[:, 0] * n + directed[:, 1]
+    return bool(np.unique(keys).size == keys.size and np.isin(directed[:, 1] * n + directed[:, 0], keys).all())
+
+
+def _directed_edges(f: np.ndarray) -> np.ndarray:
+    """(3T, 2) the edges of the triangles `f`, each in its triangle's direction."""
+    return np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
 
 
 def _components(n: int, edges: np.ndarray) -> int:

@@ -25,10 +25,13 @@ def render_depth(camera: Camera, vertices, faces, threads: int | None = None):
     return rasterize(*_projected(camera, vertices, faces), 1e-3, threads)
 
 
-def render_silhouette(camera: Camera, vertices, faces, threads: int | None = None) -> np.ndarray:
+def render_silhouette(camera: Camera, vertices, faces, threads: int | None = None,
+                      closed: bool = False) -> np.ndarray:
     """(H, W) bool: where `camera` sees the mesh (``render_depth``'s ``face >= 0``, pixel
-    for pixel, without the depths)."""
-    return coverage(*_projected(camera, vertices, faces), 1e-3, threads).view(bool)
+    for pixel, without the depths). `closed`: the mesh bounds a solid in front of the
+    camera (:func:`~hullcap._mesh.is_closed`), so that the triangles of one winding
+    alone cover it and only those are drawn (docs/design.md §6)."""
+    return coverage(*_projected(camera, vertices, faces), 1e-3, threads, closed).view(bool)
 
 
 def _projected(camera: Camera, vertices, faces):

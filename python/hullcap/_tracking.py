@@ -406,7 +406,8 @@ class Tracker:
     def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
         """The model's (H, W) bool silhouette at `pose` in every view."""
         v = model.pose(pose.theta, pose.root_rotation, pose.root_translation).vertices
-        return over_views(lambda cam: render_silhouette(cam, v, model.faces), self.sequence.cameras)
+        faces, closed = model.faces, model.closed
+        return over_views(lambda cam: render_silhouette(cam, v, faces, closed=closed), self.sequence.cameras)
 
     def _guides(self) -> bool:
         """Whether silhouettes are guided by the model."""

@@ -29,7 +29,8 @@ pub(crate) fn rasterize<'py>(
 /// 1 where a triangle given in pixel space covers a pixel, 0 elsewhere; see
 /// `hullcap._engine.pyi`.
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, width, height, near=1e-3, threads=None))]
+#[pyo3(signature = (vertices, faces, width, height, near=1e-3, threads=None, closed=false))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn coverage<'py>(
     py: Python<'py>,
     vertices: &Bound<'py, PyAny>,
@@ -38,10 +39,11 @@ pub(crate) fn coverage<'py>(
     height: i64,
     near: f64,
     threads: Option<i64>,
+    closed: bool,
 ) -> PyResult<Bound<'py, PyArrayDyn<u8>>> {
     let mesh = Projected::new(vertices, faces, width, height, threads)?;
     let (v, f, w, h, t) = mesh.parts();
-    let seen = detached(py, || hullcap_raster::coverage(v, f, w, h, near, t))?;
+    let seen = detached(py, || hullcap_raster::coverage(v, f, w, h, near, t, closed))?;
     mesh.image(py, seen)
 }
 

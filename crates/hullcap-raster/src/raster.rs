@@ -124,7 +124,7 @@ pub fn rasterize(
     near: f64,
     threads: Option<usize>,
 ) -> Result<Rendered, RasterError> {
-    let screens = screens(vertices, faces, width, height, near)?;
+    let screens = screens(vertices, faces, width, height, near, false)?;
     let pixels = paint(
         &screens,
         width,
@@ -141,9 +141,16 @@ pub fn rasterize(
 /// elsewhere, row-major, the same pixels to the last one; without depths, so cheaper.
 /// Errors as [`rasterize`].
 ///
+/// `closed`: the triangles bound a solid (each edge is shared by two of them, wound in
+/// opposite directions) that lies wholly beyond `near`. Every line of sight that meets
+/// such a solid enters it through a triangle of one winding in the image and leaves it
+/// through one of the other, so the triangles of one winding alone cover the same
+/// pixels: only those are drawn, about half the work. On a mesh that is not closed this
+/// leaves holes.
+///
 /// ```
 /// let vertices = [[1.0, 1.0, 2.0], [8.0, 1.0, 2.0], [1.0, 8.0, 2.0]];
-/// let seen = hullcap_raster::coverage(&vertices, &[[0, 1, 2]], 10, 10, 0.01, None).unwrap();
+/// let seen = hullcap_raster::coverage(&vertices, &[[0, 1, 2]], 10, 10, 0.01, None, false).unwrap();
 /// assert_eq!((seen[2 * 10 + 2], seen[9 * 10 + 9]), (1, 0));
 /// ```
 pub fn coverage(
@@ -153,8 +160,9 @@ pub fn coverage(
     height: usize,
     near: f64,
     threads: Option<usize>,
+    closed: bool,
 ) -> Result<Vec<u8>, RasterError> {
-    let screens = screens(vertices, faces, width, height, near)?;
+    let screens = screens(vertices, faces, width, height, near, closed)?;
     Ok(paint(&screens, width, height, threads, 0u8, cover_band)?)
 }
 
@@ -182,12 +190,15 @@ fn paint<T: Copy + Send>(
 }
 
 /// The triangles that can be seen, set up for edge tests; errors on a bad size or index.
+/// `one_winding`: only those whose corners run one way round in the image (a positive
+/// signed area in pixel coordinates).
 fn screens(
     vertices: &[[f64; 3]],
     faces: &[[u32; 3]],
     width: usize,
     height: usize,
     near: f64,
+    one_winding: bool,
 ) -> Result<Vec<Screen>, RasterError> {
     const MAX_SIDE: usize = 1 << 14;
     if width == 0 || height == 0 || width > MAX_SIDE || height > MAX_SIDE {
@@ -203,14 +214,21 @@ fn screens(
                 n: vertices.len(),
             })?;
         }
-        if let Some(s) = setup(f as i32, &corners, width, height, near) {
+        if let Some(s) = setup(f as i32, &corners, width, height, near, one_winding) {
             screens.push(s);
         }
     }
     Ok(screens)
 }
 
-fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -> Option<Screen> {
+fn setup(
+    face: i32,
+    p: &[[f64; 3]; 3],
+    width: usize,
+    height: usize,
+    near: f64,
+    one_winding: bool,
+) -> Option<Screen> {
     // Written so that a NaN depth also skips the triangle.
     if p.iter().any(|c| {
         c[2].partial_cmp(&near) != Some(std::cmp::Ordering::Greater)
@@ -233,7 +251,7 @@ fn setup(face: i32, p: &[[f64; 3]; 3], width: usize, height: usize, near: f64) -
     }
     let area =
         (p[1][0] - p[0][0]) * (p[2][1] - p[0][1]) - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
-    if area == 0.0 || !area.is_finite() {
+    if area == 0.0 || !area.is_finite() || (one_winding && area < 0.0) {
         return None;
     }
     let (mut a, mut b, mut c) = ([0.0; 3], [0.0; 3], [0.0; 3]);
@@ -413,11 +431,11 @@ mod tests {
         let out = rasterize(&behind, &[[0, 1, 2]], 8, 8, 0.01, None).unwrap();
         assert!(out.face.iter().all(|&f| f == -1));
         assert!(matches!(
-            coverage(&v, &[[0, 1, 9]], 8, 8, 0.01, None),
+            coverage(&v, &[[0, 1, 9]], 8, 8, 0.01, None, false),
             Err(RasterError::BadIndex { .. })
         ));
         assert!(
-            coverage(&behind, &[[0, 1, 2]], 8, 8, 0.01, None)
+            coverage(&behind, &[[0, 1, 2]], 8, 8, 0.01, None, false)
                 .unwrap()
                 .iter()
                 .all(|&c| c == 0)
@@ -454,9 +472,101 @@ mod tests {
         assert!(seen.contains(&1) && seen.contains(&0));
         for threads in [1, 3] {
             assert_eq!(
-                coverage(&vertices, &faces, 71, 53, 0.01, Some(threads)).unwrap(),
+                coverage(&vertices, &faces, 71, 53, 0.01, Some(threads), false).unwrap(),
                 seen
             );
         }
+    }
+
+    /// A closed, bumpy sphere of `rings` × `segments` (poles apart), centred at `centre`
+    /// (camera space, metres), projected by a pinhole of focal length 300 px centred on
+    /// (40.3, 30.6): vertices in pixel space and consistently wound faces.
+    fn projected_sphere(
+        centre: [f64; 3],
+        radius: f64,
+        rings: u32,
+        segments: u32,
+        first: u32,
+    ) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+        let mut points = vec![[0.0, 0.0, radius]];
+        for r in 1..rings {
+            let polar = std::f64::consts::PI * f64::from(r) / f64::from(rings);
+            for s in 0..segments {
+                let azimuth = std::f64::consts::TAU * f64::from(s) / f64::from(segments);
+                let bump = 1.0 + 0.15 * (3.0 * azimuth).sin() * (2.0 * polar).cos();
+                let rr = radius * bump;
+                points.push([
+                    rr * polar.sin() * azimuth.cos(),
+                    rr * polar.sin() * azimuth.sin(),
+                    rr * polar.cos(),
+                ]);
+            }
+        }
+        points.push([0.0, 0.0, -radius]);
+        let ring = |r: u32, s: u32| first + 1 + (r - 1) * segments + s % segments;
+        let bottom = first + 1 + (rings - 1) * segments;
+        let mut faces = Vec::new();
+        for s in 0..segments {
+            faces.push([first, ring(1, s), ring(1, s + 1)]);
+            for r in 1..rings - 1 {
+                faces.push([ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)]);
+                faces.push([ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]);
+            }
+            faces.push([ring(rings - 1, s), bottom, ring(rings - 1, s + 1)]);
+        }
+        let vertices = points
+            .iter()
+            .map(|p| {
+                let (x, y, z) = (p[0] + centre[0], p[1] + centre[1], p[2] + centre[2]);
+                [300.0 * x / z + 40.3, 300.0 * y / z + 30.6, z]
+            })
+            .collect();
+        (vertices, faces)
+    }
+
+    #[test]
+    fn a_closed_mesh_is_covered_by_one_winding() {
+        // Two bumpy spheres that pass through each other, as a posed body's parts may.
+        let (mut vertices, mut faces) = projected_sphere([0.0, 0.0, 2.0], 0.15, 13, 17, 0);
+        let (v2, f2) = projected_sphere([0.12, -0.05, 2.3], 0.1, 9, 23, vertices.len() as u32);
+        vertices.extend(v2);
+        faces.extend(f2);
+        let mut edges: Vec<(u32, u32)> = faces
+            .iter()
+            .flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])])
+            .collect();
+        edges.sort_unstable();
+        for &(a, b) in &edges {
+            assert!(edges.binary_search(&(b, a)).is_ok(), "edge {a}-{b} is open");
+        }
+        let every = coverage(&vertices, &faces, 83, 61, 0.01, Some(2), false).unwrap();
+        assert!(every.iter().filter(|&&c| c == 1).count() > 1000);
+        assert_eq!(
+            coverage(&vertices, &faces, 83, 61, 0.01, Some(2), true).unwrap(),
+            every
+        );
+        // The triangles of the other winding alone cover the same pixels too.
+        let reversed: Vec<[u32; 3]> = faces.iter().map(|t| [t[0], t[2], t[1]]).collect();
+        assert_eq!(
+            coverage(&vertices, &reversed, 83, 61, 0.01, Some(2), true).unwrap(),
+            every
+        );
+        // Not a test that cannot fail: with the cap facing the camera cut off the first
+        // sphere, the mesh is open and one of the two windings leaves its hole.
+        let near_pole = 1 + 12 * 17;
+        let open: Vec<[u32; 3]> = faces
+            .iter()
+            .filter(|t| !t.contains(&near_pole))
+            .copied()
+            .collect();
+        let holes = [
+            open.clone(),
+            open.iter().map(|t| [t[0], t[2], t[1]]).collect(),
+        ]
+        .iter()
+        .map(|f| coverage(&vertices, f, 83, 61, 0.01, Some(2), true).unwrap())
+        .filter(|seen| *seen != every)
+        .count();
+        assert_eq!(holes, 1);
     }
 }
