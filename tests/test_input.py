@@ -213,6 +213,27 @@ def test_background_subtraction_recovers_silhouettes_and_ignores_shadows(sequenc
         models[0].mask(np.zeros((10, 10, 3), np.uint8))
 
 
+@pytest.mark.parametrize("method", ["statistical", "mog2"])
+def test_the_clean_up_scales_with_the_image(method):
+    """Specks and holes are judged by their share of the image: the same scene at half the
+    resolution keeps a blob a quarter the size, and a size in pixels is refused."""
+    def scene(side):
+        img = np.full((side * 3 // 4, side, 3), 90, np.uint8)
+        return img, img.copy()
+
+    for side, blob in ((640, 15), (320, 8)):  # 225 and 64 pixels: 1.1 and 1.3 times the least blob
+        empty, frame = scene(side)
+        frame[10:10 + blob, 10:10 + blob] = (20, 200, 240)
+        model = background_model(empty, method)
+        assert (model.min_blob, model.max_hole) == ((200, 2000) if side == 640 else (50, 500))
+        assert (model.mask(frame) > 0).sum() >= blob * blob - 4 * blob  # kept (its outline may go)
+        frame[10:10 + blob, 10:10 + blob] = 90
+        frame[10:16, 10:16] = (20, 200, 240)  # 36 pixels: a speck at both sizes
+        assert not model.mask(frame).any()
+    with pytest.raises(ValueError, match="min_blob is a fraction of the image's area"):
+        background_model(empty, method, min_blob=200)
+
+
 def _reference_clean_mask(mask, min_blob, max_hole):
     """`clean_mask`'s rule written out with SciPy's labelling: open by a 3×3 square (as
     OpenCV does: erode with the outside counted as foreground, then dilate), drop

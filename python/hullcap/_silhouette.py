@@ -50,6 +50,13 @@ class Thresholds:
     brightness: float = 6.0
 
 
+MIN_BLOB = 200 / (640 * 480)
+MAX_HOLE = 2000 / (640 * 480)
+"""The background models' clean-up (:func:`clean_mask`) as fractions of the image's area:
+the sizes in pixels that served 640 × 480 cameras, kept at other resolutions for the same
+person in the same room (a quarter as many pixels at 320 × 240, where a fixed 200 pixels
+dropped a hand or a head that came apart from the body)."""
+
 FOREGROUND_EVIDENCE = 6.0
 """Evidence given to a pixel whose brightness alone makes it foreground (see
 :meth:`StatisticalBackground.evidence`)."""
@@ -63,18 +70,20 @@ class StatisticalBackground:
         noise_floor: the least per-channel standard deviation assumed (grey levels); with
             a single background image it is the spread.
         thresholds: see :class:`Thresholds`.
-        min_blob: connected foreground regions smaller than this many pixels are dropped.
-        max_hole: background regions enclosed by the subject up to this many pixels are
-            filled (``None``: every enclosed hole).
+        min_blob: connected foreground regions smaller than this fraction of the image's
+            area are dropped (200 pixels of a 640 × 480 image).
+        max_hole: background regions enclosed by the subject up to this fraction of the
+            image's area are filled (2000 pixels of a 640 × 480 image; ``None``: every
+            enclosed hole).
     """
 
     def __init__(self, backgrounds: Sequence[np.ndarray] | np.ndarray, noise_floor: float = 2.5,
-                 thresholds: Thresholds = Thresholds(), min_blob: int = 200,
-                 max_hole: int | None = 2000):
+                 thresholds: Thresholds = Thresholds(), min_blob: float = MIN_BLOB,
+                 max_hole: float | None = MAX_HOLE):
         stack = _stack(backgrounds)
         self.shape = stack.shape[1:3]
         self.thresholds = thresholds
-        self.min_blob, self.max_hole = min_blob, max_hole
+        self.min_blob, self.max_hole = _clean_sizes(self.shape, min_blob, max_hole)
         mean = stack.mean(0)
         self.mean = mean.astype(np.float32)
         """(H, W, 3) the expected colour E of each pixel (BGR, grey levels)."""
@@ -150,10 +159,10 @@ class Mog2Background:
     then frozen, with the same clean-up as :class:`StatisticalBackground`."""
 
     def __init__(self, backgrounds: Sequence[np.ndarray] | np.ndarray, var_threshold: float = 16.0,
-                 min_blob: int = 200, max_hole: int | None = 2000):
+                 min_blob: float = MIN_BLOB, max_hole: float | None = MAX_HOLE):
         stack = _stack(backgrounds)
         self.shape = stack.shape[1:3]
-        self.min_blob, self.max_hole = min_blob, max_hole
+        self.min_blob, self.max_hole = _clean_sizes(self.shape, min_blob, max_hole)
         self._model = cv2.createBackgroundSubtractorMOG2(history=max(len(stack), 2),
                                                          varThreshold=var_threshold,
                                                          detectShadows=True)
@@ -174,6 +183,16 @@ def background_model(backgrounds, method: str = "statistical", **options):
     if method == "mog2":
         return Mog2Background(backgrounds, **options)
     raise OptionsError(f"unknown background subtraction method {method!r} (statistical, mog2)")
+
+
+def _clean_sizes(shape, min_blob: float, max_hole: float | None) -> tuple[int, int | None]:
+    """``(min_blob, max_hole)`` in pixels for images of `shape`, from fractions of their
+    area (see :data:`MIN_BLOB`)."""
+    for name, fraction in (("min_blob", min_blob), ("max_hole", max_hole)):
+        if fraction is not None and not 0 <= fraction <= 1:
+            raise OptionsError(f"{name} is a fraction of the image's area, from 0 to 1; got {fraction}")
+    area = shape[0] * shape[1]
+    return max(1, round(min_blob * area)), None if max_hole is None else round(max_hole * area)
 
 
 def clean_mask(mask: np.ndarray, min_blob: int = 200, max_hole: int | None = 2000) -> np.ndarray:
