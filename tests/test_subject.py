@@ -8,7 +8,8 @@ import pytest
 from hullcap import BodyModel, FitOptions, PoseParameters, Surface, build_subject
 from hullcap._fitting import yaw_rotation
 from hullcap._shape import ShapeBasis
-from hullcap._subject import SubjectOptions, with_hands
+from hullcap._mesh import smoothed_over_mesh
+from hullcap._subject import SubjectOptions, fitted_surface, with_hands
 from hullcap._tracking import TrackerOptions
 from hullcap.errors import OptionsError
 
@@ -113,6 +114,51 @@ def test_with_hands_pulls_each_hand_toward_its_wrist():
             TrackerOptions(hand_reach=bad)
         with pytest.raises(OptionsError, match="hand reach must be in"):
             with_hands(template, bad)
+
+
+def test_the_subject_surface_follows_the_hulls_and_leaves_the_links():
+    """Hulls 1 cm outside the body, in two poses, move every vertex they cover 1 cm out
+    along its normal; a belly 2 cm out moves the belly alone, smoothly; a hull beyond the
+    reach moves nothing; the links and skin weights stay the model's."""
+    template = BodyModel.template()
+    rest, raised = PoseParameters.rest(template), PoseParameters.rest(template, yaw=0.7)
+    raised.theta[template.dof_names.index("l_elbow_flexion")] = 1.0
+
+    def hull(pose, offset):
+        posed = template.pose(pose.theta, pose.root_rotation, pose.root_translation)
+        return Surface(posed.vertices + offset[:, None] * posed.normals, template.faces, posed.normals)
+
+    n = len(template.vertices)
+    grown = fitted_surface(template, [hull(rest, np.full(n, 0.01)), hull(raised, np.full(n, 0.01))],
+                           [rest, raised])
+    moved = np.einsum("ij,ij->i", grown.vertices - template.vertices, template.normals)
+    assert np.percentile(np.abs(moved - 0.01), 95) < 1e-3, np.percentile(moved, [5, 50, 95])
+    assert np.array_equal(grown.pose().joints, template.pose().joints)
+    assert all(np.array_equal(a, b) for a, b in zip(grown.skin, template.skin))
+    v = template.vertices
+    belly = (v[:, 1] < -0.08) & (np.abs(v[:, 0]) < 0.12) & (v[:, 2] > 0.05) & (v[:, 2] < 0.25)  # body frame
+    assert belly.sum() > 50
+    fat = fitted_surface(template, [hull(rest, np.where(belly, 0.02, 0.0))], [rest])
+    out = np.einsum("ij,ij->i", fat.vertices - v, template.normals)
+    assert 0.01 < np.median(out[belly]) <= 0.02 and np.abs(out[~belly]).max() < 0.02
+    assert np.percentile(np.abs(out[~belly]), 90) < 1e-4  # far from the belly nothing moves
+    far = fitted_surface(template, [hull(rest, np.full(n, 0.05))], [rest])
+    assert np.array_equal(far.vertices, template.vertices)
+    assert fitted_surface(template, [hull(rest, np.full(n, 0.01))], [rest],
+                          SubjectOptions(surface_reach=None)) is template
+    with pytest.raises(OptionsError, match="surface_reach"):
+        SubjectOptions(surface_share=1.5)
+
+
+def test_smoothing_over_a_mesh_spreads_a_spike_to_its_neighbours():
+    faces = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])  # a tetrahedron
+    spike = np.array([1.0, 0.0, 0.0, 0.0])
+    assert np.array_equal(smoothed_over_mesh(spike, faces, 0), spike)
+    once = smoothed_over_mesh(spike, faces, 1)
+    assert np.allclose(once, [0.5, 1 / 6, 1 / 6, 1 / 6])
+    assert np.allclose(smoothed_over_mesh(np.full(4, 2.5), faces, 7), 2.5)
+    lonely = smoothed_over_mesh(np.array([1.0, 0, 0, 0, 9.0]), faces, 3)  # vertex 4 is in no face
+    assert lonely[4] == 9.0
 
 
 def test_shape_bases_refuse_what_they_cannot_mean():

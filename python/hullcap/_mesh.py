@@ -15,7 +15,8 @@ import numpy as np
 from hullcap._files import atomic_write
 from hullcap.errors import ModelError
 
-__all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "is_closed", "read_mesh", "write_mesh"]
+__all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "is_closed", "smoothed_over_mesh", "read_mesh",
+           "write_mesh"]
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,23 @@ def is_closed(faces) -> bool:
     n = int(directed.max()) + 1 if directed.size else 0
     keys = directed[:, 0] * n + directed[:, 1]
     return bool(np.unique(keys).size == keys.size and np.isin(directed[:, 1] * n + directed[:, 0], keys).all())
+
+
+def smoothed_over_mesh(values, faces, passes: int) -> np.ndarray:
+    """(V,) `values` of the vertices smoothed `passes` times: each pass keeps half of a
+    vertex's value and takes half the mean of its neighbours' (those it shares an edge
+    with; a vertex without any keeps its value)."""
+    values = np.asarray(values, float).copy()
+    edges = np.unique(np.sort(_directed_edges(np.asarray(faces, dtype=np.int64)), axis=1), axis=0)
+    if not passes or not len(edges):
+        return values
+    rows, cols = np.concatenate([edges[:, 0], edges[:, 1]]), np.concatenate([edges[:, 1], edges[:, 0]])
+    degree = np.bincount(rows, minlength=len(values))
+    lonely = degree == 0
+    for _ in range(passes):
+        mean = np.bincount(rows, weights=values[cols], minlength=len(values)) / np.maximum(degree, 1)
+        values = np.where(lonely, values, 0.5 * values + 0.5 * mean)
+    return values
 
 
 def _directed_edges(f: np.ndarray) -> np.ndarray:

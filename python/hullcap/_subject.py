@@ -27,12 +27,12 @@ from hullcap import _engine
 from hullcap._body import BodyModel
 from hullcap._engine import FitOptions, NormalKDTree
 from hullcap._fitting import FitResult, PoseParameters, fit, make_target, quality
-from hullcap._mesh import Surface
+from hullcap._mesh import Surface, smoothed_over_mesh
 from hullcap._shape import ShapeBasis, ShapeParameter
 from hullcap.errors import FitError, ModelError, OptionsError
 
 __all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent_frames", "search_centres",
-           "centre_profile", "best_move", "with_hands"]
+           "centre_profile", "best_move", "fitted_surface", "with_hands"]
 
 
 @dataclass(frozen=True)
@@ -106,6 +106,21 @@ class SubjectOptions:
             and 0.00202 with another, on either side of `centre_min_gain`. A sampled
             fraction's noise falls as one over the square root of the samples: four times
             the samples halve it.
+        surface_reach: the subject's own surface (:func:`fitted_surface`): each rest
+            vertex moves along its normal by the median, over frames of the first
+            seconds, of its distance to the hull along that normal, where the hull lies
+            within this many metres (3 cm: twice the largest girth error of a shape fit,
+            well under a limb's radius, so that a vertex never pairs with another part of
+            the body). ``None`` keeps the template's surface at the fitted shape.
+        surface_angle: the largest angle (radians) between a vertex's normal and its hull
+            partner's.
+        surface_share: a vertex moves only when at least this share of the frames gave it
+            a partner (a part the hull keeps losing, the fingers, stays as it is).
+        surface_smoothing: passes of smoothing over the mesh (each vertex half its own
+            offset, half its neighbours' mean): a hull's own bumps are a voxel (1 cm)
+            wide, and ten passes spread an offset over about three rings of vertices,
+            3 cm on the template.
+        surface_frames: the frames of the first seconds measured, spread evenly over them.
     """
 
     length_sigma: float = 0.15
@@ -131,6 +146,11 @@ class SubjectOptions:
     centre_min_bend: float = math.radians(45.0)
     centre_min_gain: float = 0.002
     centre_samples: int = 6000
+    surface_reach: float | None = 0.03
+    surface_angle: float = math.radians(45.0)
+    surface_share: float = 0.3
+    surface_smoothing: int = 10
+    surface_frames: int = 24
 
     def __post_init__(self):
         if self.rest_mesh not in ("template", "hull"):
@@ -144,6 +164,10 @@ class SubjectOptions:
                 and self.centre_min_bend >= 0 and self.centre_min_gain >= 0 and self.centre_samples >= 1):
             raise OptionsError("SubjectOptions: need 0 < centre_step <= centre_range, centre_frames >= 1, "
                                "centre_samples >= 1, centre_min_bend and centre_min_gain >= 0")
+        if not ((self.surface_reach is None or self.surface_reach > 0) and 0 < self.surface_angle <= math.pi
+                and 0 <= self.surface_share <= 1 and self.surface_smoothing >= 0 and self.surface_frames >= 1):
+            raise OptionsError("SubjectOptions: need surface_reach > 0 (or None), 0 < surface_angle <= pi, "
+                               "0 <= surface_share <= 1, surface_smoothing >= 0 and surface_frames >= 1")
 
     def basis(self, links) -> ShapeBasis:
         """The shape parameters: an overall scale, then :meth:`ShapeBasis.standard`."""
@@ -347,6 +371,38 @@ def _limited(model: BodyModel, limits: dict) -> BodyModel:
             raise OptionsError(f"SubjectOptions.calibration_limits: {e}") from e
     b, k = model.skin_parameters
     return BodyModel(replace(links, dof_limits=new), model.vertices, model.faces, skin=model.skin, b=b, k=k)
+
+
+def fitted_surface(model: BodyModel, hulls, poses, options: SubjectOptions = SubjectOptions()) -> BodyModel:
+    """`model` with the subject's own surface: the template at the fitted shape is a
+    person's proportions, not their shape (a belly, narrow shoulders, the bulk of a
+    thigh). Each rest vertex moves along its rest normal by the median, over the
+    `hulls` (:class:`~hullcap._mesh.Surface`) with the model at `poses`, of the distance
+    along its posed normal to its nearest hull point (6-D, normals within
+    ``options.surface_angle``, within ``options.surface_reach``), where at least
+    ``options.surface_share`` of the hulls gave it one; the offsets are then smoothed over
+    the mesh. The links and skin weights stay: only the surface moves. A hull is larger
+    than the body where the views cannot see between parts; the median over frames of
+    different poses keeps what most of them agree on."""
+    o = options
+    if o.surface_reach is None or not len(hulls):
+        return model
+    n = len(model.vertices)
+    offsets = np.full((len(hulls), n), np.nan)
+    for i, (hull, pose) in enumerate(zip(hulls, poses)):
+        posed = model.pose(pose.theta, pose.root_rotation, pose.root_translation)
+        found, _ = NormalKDTree(hull.vertices, hull.normals).query(
+            posed.vertices, posed.normals, max_distance=o.surface_reach, max_angle=o.surface_angle)
+        paired = found >= 0
+        offsets[i, paired] = np.einsum("ij,ij->i", hull.vertices[found[paired]] - posed.vertices[paired],
+                                       posed.normals[paired])
+    seen = np.isfinite(offsets).sum(0) >= max(1.0, o.surface_share * len(hulls))
+    offset = np.zeros(n)
+    offset[seen] = np.nanmedian(offsets[:, seen], axis=0)
+    offset = smoothed_over_mesh(offset, model.faces, o.surface_smoothing)
+    b, k = model.skin_parameters
+    return BodyModel(model.link_model, model.vertices + offset[:, None] * model.normals, model.faces,
+                     skin=model.skin, b=b, k=k)
 
 
 def with_hands(model: BodyModel, reach: float) -> BodyModel:

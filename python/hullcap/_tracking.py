@@ -53,7 +53,8 @@ from hullcap._render import render_silhouette
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
-from hullcap._subject import SubjectOptions, bent_frames, build_subject, place_model, search_centres, with_hands
+from hullcap._subject import (SubjectOptions, bent_frames, build_subject, fitted_surface, place_model,
+                              search_centres, with_hands)
 from hullcap._threads import ReadAhead, over_views
 from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 
@@ -588,8 +589,9 @@ class Tracker:
     def _refine(self, subject, first: int, n: int, show_progress: bool):
         """Track the first seconds with `subject`, fit its proportions and joint centres
         over frames of them, place the hinges' centres from the frames where they bend
-        most (:func:`hullcap._subject.search_centres`), and return the refined model with
-        its pose at `first`."""
+        most (:func:`hullcap._subject.search_centres`), give it the subject's own surface
+        (:func:`hullcap._subject.fitted_surface`), and return the refined model with its
+        pose at `first`."""
         last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
         # The model is built from these poses: full fits (the girdle start's too, kept only
@@ -617,6 +619,12 @@ class Tracker:
             model, move = search_centres(model, joint, axis, targets, [window.pose(f) for f in frames],
                                          self.options.subject)
             moved |= move != 0
+        o = self.options.subject
+        if o.surface_reach is not None:
+            frames = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, o.surface_frames)})
+            shown = [self.hull(f, (subject.model, window.pose(f))) for f in frames]
+            poses = [fit(model, make_target(h), window.pose(f), o.fit).pose for f, h in zip(frames, shown)]
+            model, moved = fitted_surface(model, shown, poses, o), True
         if not moved:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
