@@ -183,8 +183,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--restart", action="store_true", help="start over instead of resuming")
     t.add_argument("--no-overlay", action="store_true", help="skip the overlay videos (overlay/<cam>.mp4)")
     t.add_argument("--no-refine-joints", dest="refine_joints", action="store_false",
-                   help="build the subject's model from the calibration pose only (default: refine its proportions "
-                        "and joint centres from the first seconds of motion, then track from the start)")
+                   help="build the subject's model from the calibration pose only (default: refine its proportions, "
+                        "joint centres and surface from the first seconds of motion, then track from the start)")
     t.add_argument("--hand-reach", type=float, metavar="F",
                    help="fit each hand pulled toward its wrist to this fraction of its length (1: whole hands; "
                         "default 0.6 with the sequence's own silhouettes, 1 with background subtraction, see "

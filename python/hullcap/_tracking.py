@@ -136,7 +136,8 @@ class TrackerOptions:
         subject: how the subject's model is built.
         refine_joints: after building the model, track the first `calibration_seconds`,
             fit the model's proportions and joint centres again over `calibration_frames`
-            frames of them, and track from the start with the refined model.
+            frames of them, give it the subject's surface (``subject.surface_reach``), and
+            track from the start with the refined model.
         calibration_seconds, calibration_frames: see `refine_joints`. Where a knee sits
             shows only in frames where it bends (:func:`hullcap._subject.bent_frames`),
             and people take a few seconds to bend one: in the first 3 s of d02 the tracked
