@@ -77,7 +77,7 @@ def check_closed(vertices: np.ndarray, faces: np.ndarray) -> dict:
     """
     v = np.asarray(vertices, dtype=np.float64)
     f = np.asarray(faces, dtype=np.int64)
-    undirected = np.unique(np.sort(_directed_edges(f), axis=1), axis=0)
+    undirected = _undirected_edges(f)
     a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
     volume = float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
     return {
@@ -102,7 +102,7 @@ def smoothed_over_mesh(values, faces, passes: int) -> np.ndarray:
     vertex's value and takes half the mean of its neighbours' (those it shares an edge
     with; a vertex without any keeps its value)."""
     values = np.asarray(values, float).copy()
-    edges = np.unique(np.sort(_directed_edges(np.asarray(faces, dtype=np.int64)), axis=1), axis=0)
+    edges = _undirected_edges(np.asarray(faces, dtype=np.int64))
     if not passes or not len(edges):
         return values
     rows, cols = np.concatenate([edges[:, 0], edges[:, 1]]), np.concatenate([edges[:, 1], edges[:, 0]])
@@ -117,6 +117,11 @@ def smoothed_over_mesh(values, faces, passes: int) -> np.ndarray:
 def _directed_edges(f: np.ndarray) -> np.ndarray:
     """(3T, 2) the edges of the triangles `f`, each in its triangle's direction."""
     return np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+
+
+def _undirected_edges(f: np.ndarray) -> np.ndarray:
+    """(E, 2) the edges of the triangles `f`, each once, its lower vertex first."""
+    return np.unique(np.sort(_directed_edges(f), axis=1), axis=0)
 
 
 def _components(n: int, edges: np.ndarray) -> int:

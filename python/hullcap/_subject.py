@@ -109,17 +109,18 @@ class SubjectOptions:
         surface_reach: the subject's own surface (:func:`fitted_surface`): each rest
             vertex moves along its normal by the median, over frames of the first
             seconds, of its distance to the hull along that normal, where the hull lies
-            within this many metres (3 cm: twice the largest girth error of a shape fit,
-            well under a limb's radius, so that a vertex never pairs with another part of
-            the body). ``None`` keeps the template's surface at the fitted shape.
+            within this many metres (3 cm: beyond the offsets the development set's bodies
+            take, 95 % of them within 8 mm, and under a forearm's radius, so that a vertex
+            pairs with its own part of the hull). ``None`` keeps the template's surface at
+            the fitted shape.
         surface_angle: the largest angle (radians) between a vertex's normal and its hull
             partner's.
         surface_share: a vertex moves only when at least this share of the frames gave it
             a partner (a part the hull keeps losing, the fingers, stays as it is).
         surface_smoothing: passes of smoothing over the mesh (each vertex half its own
             offset, half its neighbours' mean): a hull's own bumps are a voxel (1 cm)
-            wide, and ten passes spread an offset over about three rings of vertices,
-            3 cm on the template.
+            wide, and ten passes spread an offset over a few centimetres of the template
+            (its edges are 1.6 cm long on average).
         surface_frames: the frames of the first seconds measured, spread evenly over them.
     """
 

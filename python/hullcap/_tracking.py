@@ -622,10 +622,10 @@ class Tracker:
             moved |= move != 0
         o = self.options.subject
         if o.surface_reach is not None:
-            frames = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, o.surface_frames)})
-            shown = [self.hull(f, (subject.model, window.pose(f))) for f in frames]
-            poses = [fit(model, make_target(h), window.pose(f), o.fit).pose for f, h in zip(frames, shown)]
-            model, moved = fitted_surface(model, shown, poses, o), True
+            measured = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, o.surface_frames)})
+            shown = [self.hull(f, (subject.model, window.pose(f))) for f in measured]
+            at = [fit(model, make_target(h), window.pose(f), o.fit).pose for f, h in zip(measured, shown)]
+            model, moved = fitted_surface(model, shown, at, o), True
         if not moved:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
