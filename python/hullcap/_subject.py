@@ -110,7 +110,7 @@ class SubjectOptions:
             vertex moves along its normal by the median, over frames of the first
             seconds, of its distance to the hull along that normal, where the hull lies
             within this many metres (3 cm: beyond the offsets the development set's bodies
-            take, 95 % of them within 8 mm, and under a forearm's radius, so that a vertex
+            take, nine in ten within 8.5 mm, and under a forearm's radius, so that a vertex
             pairs with its own part of the hull). ``None`` keeps the template's surface at
             the fitted shape.
         surface_angle: the largest angle (radians) between a vertex's normal and its hull
