@@ -287,3 +287,34 @@ def test_the_screen_passes_on_the_best_candidates_and_always_the_pose_to_beat():
     for bad in ({"screen": -1}, {"screen_coarse": 0}):
         with pytest.raises(OptionsError):
             SearchOptions(**bad)
+
+
+def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
+    """An elbow or knee a fit turned more than `hinge_jump` from the prediction is limited
+    to within `hinge_hold` of the prediction for the fit that checks it; nothing else is."""
+    from hullcap._fitting import PoseParameters
+    from hullcap._tracking import _State
+    from hullcap.errors import OptionsError
+
+    model = BodyModel.template()
+    names = list(model.dof_names)
+    predicted = PoseParameters(np.zeros(model.n_dofs), np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
+    theta = np.zeros(model.n_dofs)
+    theta[names.index("l_elbow_flexion")] = np.radians(150)  # a fold
+    theta[names.index("r_knee_flexion")] = np.radians(30)  # within the jump
+    theta[names.index("l_shoulder_flexion")] = np.radians(90)  # not a hinge
+    fitted = PoseParameters(theta, predicted.root_rotation, predicted.root_translation)
+    options = TrackerOptions()
+    state = _State(model, options, None)
+    held = state.hinges_held(predicted, fitted)
+    before, after = model.link_model.dof_limits, held.link_model.dof_limits
+    elbow = names.index("l_elbow_flexion")
+    assert np.allclose(after[elbow], [max(before[elbow][0], -options.hinge_hold), options.hinge_hold])
+    others = np.arange(model.n_dofs) != elbow
+    assert np.array_equal(after[others], before[others])
+    assert np.array_equal(held.vertices, model.vertices) and all(
+        np.array_equal(a, b) for a, b in zip(held.skin, model.skin))
+    assert state.hinges_held(predicted, predicted) is None
+    assert _State(model, TrackerOptions(hinge_jump=None), None).hinges_held(predicted, fitted) is None
+    with pytest.raises(OptionsError, match="hinge_jump"):
+        TrackerOptions(hinge_jump=0.0)

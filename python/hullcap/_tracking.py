@@ -30,6 +30,7 @@ every output is written, lets an interrupted run resume where it stopped.
 from __future__ import annotations
 
 import io
+import math
 import time
 import warnings
 import zipfile
@@ -193,6 +194,16 @@ class TrackerOptions:
             A person in the calibration pose agrees to 0.6–0.7 with poor masks and 0.9–0.95
             with exact ones; blobs of noise, which the hull and the fit can still make
             something of, agree to less than 0.05.
+        hinge_jump, hinge_hold, hinge_tolerance: a fit that turns an elbow or a knee more
+            than `hinge_jump` (radians) away from the prediction is fitted again with that
+            hinge held within `hinge_hold` of the prediction, and the held fit stands unless
+            the free one explains the hull better by more than `hinge_tolerance` (the
+            girdle start's tolerance). Where the hull loses a forearm (an arm the colour of
+            the wall behind it), folding it onto the upper arm lets its points pair with
+            the upper arm's and the head's hull and explains the hull a little better
+            (0.002 in the case measured, docs/accuracy.md "A limb the hull lost"); a limb
+            that really moved that far, and that the hull shows, is explained far better
+            free. ``None``: no check.
         reacquire: search from the hull when a fit is not good (else the frame fails).
         search: the search's options.
         motion_sigma: when set, a tracking fit (from the prediction, from the last pose,
@@ -265,6 +276,9 @@ class TrackerOptions:
     search: SearchOptions = field(default_factory=SearchOptions)
     motion_sigma: float | None = None
     motion_prior_distance: float = 0.003
+    hinge_jump: float | None = math.radians(45.0)
+    hinge_hold: float = math.radians(10.0)
+    hinge_tolerance: float = 0.005
     hand_reach: float | None = None
     wrists: bool = True
     read_ahead: int = 2
@@ -282,6 +296,9 @@ class TrackerOptions:
             raise OptionsError(f"hand_reach must be in (0, 1], got {self.hand_reach}")
         if self.read_ahead < 0:
             raise OptionsError(f"read_ahead must be >= 0, got {self.read_ahead}")
+        if not ((self.hinge_jump is None or self.hinge_jump > 0) and self.hinge_hold >= 0
+                and self.hinge_tolerance >= 0):
+            raise OptionsError("hinge_jump must be positive (or None), hinge_hold and hinge_tolerance >= 0")
         if self.recheck_margin is not None and not self.recheck_margin >= 0:
             raise OptionsError(f"recheck_margin must be >= 0 (or None), got {self.recheck_margin}")
         if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
@@ -681,6 +698,12 @@ class Tracker:
             iterations += fitted.iterations
             if state.takes_girdle_fit(best, fitted):
                 best = fitted
+        held = None if best is None or not starts else state.hinges_held(starts[0], best.pose)
+        if held is not None:
+            fitted = self._fit_from(state, target, starts[0], first, held)
+            iterations += fitted.iterations
+            if quality(fitted) >= quality(best) - options.hinge_tolerance:
+                best = fitted
         status = GOOD if best is not None and state.good(best) else FAILED
         if status == FAILED and options.reacquire:
             found = best
@@ -708,13 +731,14 @@ class Tracker:
             state.remember_fit(best)
         self.seconds["fit"] += time.perf_counter() - t0
 
-    def _fit_from(self, state: _State, target, start: PoseParameters, options: FitOptions) -> FitResult:
-        """A tracking fit from `start`, whose joints are held near it by the motion prior
-        (``TrackerOptions.motion_sigma``)."""
+    def _fit_from(self, state: _State, target, start: PoseParameters, options: FitOptions,
+                  model: BodyModel | None = None) -> FitResult:
+        """A tracking fit from `start` (of `model`, by default the state's), whose joints
+        are held near it by the motion prior (``TrackerOptions.motion_sigma``)."""
         sigma = state.options.motion_sigma
         prior = None if sigma is None else PosePrior(start.theta, np.full(state.model.n_dofs, sigma),
                                                      state.options.motion_prior_distance)
-        return fit(state.model, target, start, options, prior=prior)
+        return fit(model or state.model, target, start, options, prior=prior)
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
         buf = io.BytesIO()
@@ -764,6 +788,7 @@ class _State:
         self.search = PoseSearch(model, search_fit or options.fit, options.search, options.seed)
         self.refit_found = search_fit is not None
         self.chains = chain_links(model)
+        self.hinges = [i for i, name in enumerate(model.dof_names) if name.endswith(("elbow_flexion", "knee_flexion"))]
         # The limbs are judged on their own; the trunk, most of the body, by the whole.
         self.limbs = [c for c, name in enumerate(CHAINS) if name != "trunk"]
         self.reference: deque = deque(maxlen=options.quality_window)
@@ -775,6 +800,24 @@ class _State:
         self.confirmed: tuple[float, np.ndarray] | None = None
         if anchor is not None:
             self.remember_fit(anchor)
+
+    def hinges_held(self, predicted: PoseParameters, fitted: PoseParameters) -> BodyModel | None:
+        """The model with each elbow and knee that `fitted` turned more than
+        ``hinge_jump`` from `predicted` limited to within ``hinge_hold`` of it; ``None``
+        when none did."""
+        o = self.options
+        if o.hinge_jump is None:
+            return None
+        jumped = [i for i in self.hinges if abs(fitted.theta[i] - predicted.theta[i]) > o.hinge_jump]
+        if not jumped:
+            return None
+        links = self.model.link_model
+        limits = links.dof_limits.copy()
+        for i in jumped:
+            limits[i] = np.clip(predicted.theta[i] + np.array([-o.hinge_hold, o.hinge_hold]), *links.dof_limits[i])
+        b, k = self.model.skin_parameters
+        return BodyModel(replace(links, dof_limits=limits), self.model.vertices, self.model.faces,
+                         skin=self.model.skin, b=b, k=k)
 
     def remember_fit(self, fitted) -> None:
         """Take an accepted fit's quality, and its chains', into the references."""
