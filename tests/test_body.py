@@ -300,3 +300,14 @@ end_header
         p.write_text(text)
         v, f, n = hullcap.read_mesh(p)
     assert v.shape == (4, 3) and f.tolist() == [[0, 1, 2], [0, 2, 3]] and n is None
+
+
+def test_new_joint_limits_keep_the_mesh_and_the_skin(model):
+    limits = model.link_model.dof_limits.copy()
+    limits[0] = (-0.1, 0.1)
+    limited = model.with_dof_limits(limits)
+    assert np.array_equal(limited.link_model.dof_limits, limits)
+    assert np.array_equal(limited.vertices, model.vertices) and all(
+        np.array_equal(a, b) for a, b in zip(limited.skin, model.skin))
+    with pytest.raises(ValueError, match="limits"):
+        model.with_dof_limits(limits[1:])

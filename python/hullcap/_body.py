@@ -102,6 +102,13 @@ class BodyModel:
         return BodyModel(self._links, self._vertices, self._faces,
                          b=self._b if b is None else b, k=self._k if k is None else k)
 
+    def with_dof_limits(self, limits) -> BodyModel:
+        """The same mesh and skin weights with the joint limits `limits` ((D, 2) radians,
+        in ``dof_names`` order)."""
+        limits = _array(limits, "limits", np.float64, (self.n_dofs, 2))
+        return BodyModel(replace(self._links, dof_limits=limits), self._vertices, self._faces, skin=self._skin,
+                         b=self._b, k=self._k)
+
     def with_wrists(self) -> BodyModel:
         """The same mesh with hands that turn at the wrists (:meth:`LinkModel.with_wrists`),
         skinned afresh; this model when its link model has no wrist to add."""

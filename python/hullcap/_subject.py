@@ -19,7 +19,7 @@ joint centre, found by the fit's own measure of quality).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -370,8 +370,7 @@ def _limited(model: BodyModel, limits: dict) -> BodyModel:
             new[links.dof_indices(name)] = np.radians([lo, hi])
         except ModelError as e:
             raise OptionsError(f"SubjectOptions.calibration_limits: {e}") from e
-    b, k = model.skin_parameters
-    return BodyModel(replace(links, dof_limits=new), model.vertices, model.faces, skin=model.skin, b=b, k=k)
+    return model.with_dof_limits(new)
 
 
 def fitted_surface(model: BodyModel, hulls, poses, options: SubjectOptions = SubjectOptions()) -> BodyModel:

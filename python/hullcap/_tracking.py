@@ -811,13 +811,11 @@ class _State:
         jumped = [i for i in self.hinges if abs(fitted.theta[i] - predicted.theta[i]) > o.hinge_jump]
         if not jumped:
             return None
-        links = self.model.link_model
-        limits = links.dof_limits.copy()
+        own = self.model.link_model.dof_limits
+        limits = own.copy()
         for i in jumped:
-            limits[i] = np.clip(predicted.theta[i] + np.array([-o.hinge_hold, o.hinge_hold]), *links.dof_limits[i])
-        b, k = self.model.skin_parameters
-        return BodyModel(replace(links, dof_limits=limits), self.model.vertices, self.model.faces,
-                         skin=self.model.skin, b=b, k=k)
+            limits[i] = np.clip(predicted.theta[i] + np.array([-o.hinge_hold, o.hinge_hold]), *own[i])
+        return self.model.with_dof_limits(limits)
 
     def remember_fit(self, fitted) -> None:
         """Take an accepted fit's quality, and its chains', into the references."""
