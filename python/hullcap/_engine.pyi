@@ -233,7 +233,7 @@ def coverage(
     ``closed``: the triangles bound a solid (every edge in two of them, wound oppositely)
     lying wholly beyond ``near``. A line of sight through such a solid enters it through a
     triangle of one winding in the image and leaves through one of the other, so only the
-    triangles of one winding are drawn: the same pixels for about half the work (short of
+    triangles of one winding are drawn: the same pixels from half the triangles (short of
     a pixel centre lying exactly on a corner, where rounding decides). An open mesh
     drawn so shows holes."""
 

@@ -624,7 +624,7 @@ class Tracker:
         good = [f for f in range(first, last) if not window.failed[f]]
         if len(good) < 2:
             return subject.model, first, subject.fit
-        picks = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, self.options.calibration_frames)})
+        picks = _spread(good, self.options.calibration_frames)
         poses = [window.pose(f) for f in picks]
         for k, (f, pose) in enumerate(zip(picks, poses)):
             self.learn_colours(f, subject.model, pose, fresh=k == 0)
@@ -639,7 +639,7 @@ class Tracker:
             moved |= move != 0
         o = self.options.subject
         if o.surface_reach is not None:
-            measured = sorted({good[int(round(i))] for i in np.linspace(0, len(good) - 1, o.surface_frames)})
+            measured = _spread(good, o.surface_frames)
             shown = [self.hull(f, (subject.model, window.pose(f))) for f in measured]
             at = [fit(model, make_target(h), window.pose(f), o.fit).pose for f, h in zip(measured, shown)]
             model, moved = fitted_surface(model, shown, at, o), True
@@ -771,6 +771,11 @@ class _Input:
     mask: np.ndarray | None = None
     image: np.ndarray | None = None
     evidence: np.ndarray | None = None
+
+
+def _spread(frames: list[int], n: int) -> list[int]:
+    """Up to `n` of `frames`, spread evenly over them (the first and the last among them)."""
+    return sorted({frames[int(round(i))] for i in np.linspace(0, len(frames) - 1, n)})
 
 
 class _State:

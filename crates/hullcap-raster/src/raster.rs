@@ -145,7 +145,7 @@ pub fn rasterize(
 /// opposite directions) that lies wholly beyond `near`. Every line of sight that meets
 /// such a solid enters it through a triangle of one winding in the image and leaves it
 /// through one of the other, so the triangles of one winding alone cover the same
-/// pixels: only those are drawn, about half the work. On a mesh that is not closed this
+/// pixels: only those are drawn, half the triangles. On a mesh that is not closed this
 /// leaves holes.
 ///
 /// ```
