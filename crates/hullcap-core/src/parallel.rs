@@ -8,7 +8,7 @@
 //! (`team.rs`).
 
 use std::num::NonZeroUsize;
-use std::sync::Mutex;
+use std::sync::{Mutex, OnceLock};
 use std::thread;
 
 /// A worker thread panicked; the message is the panic's payload when it was a string.
@@ -26,9 +26,16 @@ const THREADS_VARIABLE: &str = "HULLCAP_THREADS";
 /// the engine do not depend on it, only its speed.
 pub fn resolve_threads(requested: Option<usize>) -> usize {
     let from_environment = std::env::var(THREADS_VARIABLE).ok();
-    choose_threads(requested, from_environment.as_deref(), || {
-        thread::available_parallelism().map_or(1, NonZeroUsize::get)
-    })
+    choose_threads(requested, from_environment.as_deref(), cores)
+}
+
+/// The cores `std::thread::available_parallelism` reports, asked once per process: on
+/// Linux it opens and reads three cgroup files on every call (about 24 µs here), and a
+/// tracked frame resolves its threads about 26 times. A process that narrows its own
+/// affinity afterwards says so in [`THREADS_VARIABLE`], which is read on every call.
+fn cores() -> usize {
+    static CORES: OnceLock<usize> = OnceLock::new();
+    *CORES.get_or_init(|| thread::available_parallelism().map_or(1, NonZeroUsize::get))
 }
 
 fn choose_threads(
