@@ -9,6 +9,7 @@ from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, Tra
 from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._evaluate import accuracy
+from hullcap._results import GOOD
 from hullcap._sequence import Sequence
 from hullcap._subject import with_hands
 from hullcap._synth import synthesize
@@ -100,7 +101,6 @@ def test_a_fit_a_search_confirmed_is_the_bar_until_the_hull_is_whole_again(model
 
     from hullcap._fitting import make_target
     from hullcap._reacquire import CHAINS
-    from hullcap._results import GOOD
     from hullcap._tracking import _State
 
     root = np.array([0.0, 0.0, model.rest_root_height])
@@ -253,6 +253,29 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
     assert not resumed.failed.any() and not (out / ".checkpoint.npz").exists()
     straight = Tracker(seq, options=options).run(tmp_path / "straight", show_progress=False, frames=16)
     assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
+
+
+def test_a_given_model_teaches_the_guided_masks_colours_as_it_goes(short_sequence, tmp_path, monkeypatch):
+    # Placed at one frame, a given model's segmenters know that frame's colours alone;
+    # tracking teaches them from calibration_frames frames over calibration_seconds, as a
+    # refined model's window does, each at the first frame from it on that needs no search.
+    seq = Sequence(short_sequence)
+    built = Tracker(seq, options=TrackerOptions(refine_joints=False)).run(tmp_path / "built", show_progress=False,
+                                                                           frames=2)
+    taught = []
+    real = Tracker.learn_colours
+
+    def recording(self, frame, *args, **kwargs):
+        taught.append(frame)
+        return real(self, frame, *args, **kwargs)
+
+    monkeypatch.setattr(Tracker, "learn_colours", recording)
+    options = TrackerOptions(use_silhouettes=False, calibration_seconds=0.4, calibration_frames=4)
+    result = Tracker(seq, model=built.model, options=options).run(tmp_path / "given", show_progress=False,
+                                                                   frames=16)
+    # 0.4 s at 30 frames/s from frame 0: frames 0-11, four of them spread, the first the placement's.
+    assert not result.failed.any() and (result.status == GOOD).all()
+    assert taught == [0, 4, 7, 11]
 
 
 def test_command_line_errors_name_the_problem(tmp_path, capsys):

@@ -139,7 +139,11 @@ class TrackerOptions:
             fit the model's proportions and joint centres again over `calibration_frames`
             frames of them, give it the subject's surface (``subject.surface_reach``), and
             track from the start with the refined model.
-        calibration_seconds, calibration_frames: see `refine_joints`. Where a knee sits
+        calibration_seconds, calibration_frames: see `refine_joints`. Without it, or
+            with a model given, tracking teaches the guided masks' colours from as many
+            frames over as many seconds as it goes: over the development set with each
+            sequence's model given, from colour frames, 23.0 / 15.4 mm → 22.6 / 14.9 and
+            d01's one lost frame tracked (docs/accuracy.md). Where a knee sits
             shows only in frames where it bends (:func:`hullcap._subject.bent_frames`),
             and people take a few seconds to bend one: in the first 3 s of d02 the tracked
             knees bent by 45° in a single landing, two or three usable frames, too few for
@@ -328,6 +332,9 @@ class Tracker:
         self._guided = None
         self._broken: set = set()  # (frame, camera) of views already left out
         self._ahead: ReadAhead | None = None
+        # Frames from which tracking still teaches the guided segmenters colours, in
+        # order (a given model's first seconds, :meth:`_teaching_frames`).
+        self._teach_at: list[int] = []
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
         """Frames and views left out, and why (:mod:`hullcap._problems`)."""
@@ -432,6 +439,16 @@ class Tracker:
         """Whether silhouettes are guided by the model."""
         return not self._given_silhouettes and self._segmenters() is not None
 
+    def _teaching_frames(self, first: int, n: int) -> list[int]:
+        """The frames after `first`, spread over the first `calibration_seconds`, from which
+        tracking teaches the guided segmenters colours as it goes, where the subject's model
+        was not refined here (given, or ``refine_joints`` off): it was placed at one frame,
+        whose colours alone the segmenters know, while a refined model's window taught them
+        from `calibration_frames` frames (:meth:`_refine`), the bends of the body among
+        them. Each is taught at the first frame from it on that passes without a search."""
+        last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
+        return _spread(list(range(first, last)), self.options.calibration_frames)[1:]
+
     def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False) -> None:
         """Teach the guided segmenters the subject's and background's colours from a frame
         in which `model` is fitted at `pose` (`fresh`: forget what they knew); no-op when
@@ -503,6 +520,8 @@ class Tracker:
         if result is None:
             t0, before = time.perf_counter(), dict(self.seconds)
             model, start, anchor = self._subject(n, show_progress)
+            refined = self.model is None and self.options.refine_joints  # its window taught the colours
+            self._teach_at = [] if refined else self._teaching_frames(start, n)
             # The subject's frames (the calibration pass too) count as 'subject' only, so
             # that the per-stage seconds are those of tracking the sequence once.
             self.seconds = defaultdict(float, before)
@@ -705,6 +724,7 @@ class Tracker:
             if quality(fitted) >= quality(best) - options.hinge_tolerance:
                 best = fitted
         status = GOOD if best is not None and state.good(best) else FAILED
+        passed = status == GOOD  # without a search
         if status == FAILED and options.reacquire:
             found = best
             lost = [] if best is None else state.lost_chains(best)
@@ -730,6 +750,9 @@ class Tracker:
         if status != FAILED:
             state.remember_fit(best)
         self.seconds["fit"] += time.perf_counter() - t0
+        if passed and self._teach_at and frame >= self._teach_at[0]:
+            self._teach_at = [f for f in self._teach_at if f > frame]
+            self.learn_colours(frame, state.guide, best.pose)
 
     def _fit_from(self, state: _State, target, start: PoseParameters, options: FitOptions,
                   model: BodyModel | None = None) -> FitResult:
