@@ -228,10 +228,14 @@ def test_other_threads_change_nothing(short_sequence, tmp_path, monkeypatch):
     assert ahead.seconds["read ahead"] > 0 and "read ahead" not in serial.seconds
 
 
-def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, monkeypatch):
+@pytest.mark.parametrize("own_silhouettes", [True, False], ids=["masks", "colour frames"])
+def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, monkeypatch, own_silhouettes):
+    # From colour frames the guided masks depend on the colours the segmenters learnt
+    # before the interruption (the first frame's, and those taught since): the
+    # checkpoint keeps them.
     seq = Sequence(short_sequence)
     out = tmp_path / "out"
-    options = TrackerOptions(refine_joints=False)
+    options = TrackerOptions(refine_joints=False, use_silhouettes=own_silhouettes)
     tracker = Tracker(seq, options=options)
     calls = {"n": 0}
     real = Tracker._track

@@ -184,6 +184,16 @@ class ColourModel:
         self.background[:] = 0
         self._table = None
 
+    def restore(self, subject: np.ndarray, background: np.ndarray) -> None:
+        """Take back the counts `subject` and `background` that another model of the same
+        bins had learnt (a checkpoint); ValueError when they do not fit."""
+        for name, counts in (("subject", subject), ("background", background)):
+            if np.shape(counts) != self.subject.shape:
+                raise ValueError(f"{name} colour counts of shape {np.shape(counts)}, not {self.subject.shape}")
+        self.subject = np.asarray(subject, float).copy()
+        self.background = np.asarray(background, float).copy()
+        self._table = None
+
     @property
     def ready(self) -> bool:
         return self.subject.sum() > 0 and self.background.sum() > 0

@@ -61,6 +61,9 @@ from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
 
+# The checkpoint's arrays of what a run learnt besides its results (Tracker._learnt).
+LEARNT_TEACH_AT = "learnt_teach_at"
+LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
 CHECKPOINT = ".checkpoint.npz"
 PROBLEMS = "problems.json"
 
@@ -765,9 +768,30 @@ class Tracker:
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
         buf = io.BytesIO()
-        np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays())
+        np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays(),
+                 **self._learnt())
         self.problems.save(out / PROBLEMS)
         atomic_write(out / CHECKPOINT, buf.getvalue())
+
+    def _learnt(self) -> dict:
+        """What the run has learnt besides its results, for the checkpoint: the guided
+        segmenters' colours and the frames still to teach them from."""
+        learnt = {LEARNT_TEACH_AT: np.asarray(self._teach_at, np.int64)}
+        if self._guides():
+            for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
+                learnt[name] = np.stack([getattr(g.colours, part) for g in self._guided])
+        return learnt
+
+    def _relearn(self, arrays: dict) -> None:
+        """Takes back from a checkpoint's `arrays` (and removes from them) what
+        :meth:`_learnt` put there, so that a resumed run goes on as the interrupted one would."""
+        self._teach_at = [int(f) for f in arrays.pop(LEARNT_TEACH_AT, ())]
+        colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
+        if colours[0] is not None and self._guides():
+            if any(len(c) != len(self._guided) for c in colours):
+                raise ValueError(f"colours of {len(colours[0])} cameras, not {len(self._guided)}")
+            for g, subject, background in zip(self._guided, *colours):
+                g.colours.restore(subject, background)
 
     def _resume(self, out: Path, n: int):
         path = out / CHECKPOINT
@@ -778,6 +802,7 @@ class Tracker:
                 if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
                     return None, 0
                 arrays = {k: z[k] for k in z.files}
+            self._relearn(arrays)
         except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
             raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
                                f"(resume=False) to start over") from None
