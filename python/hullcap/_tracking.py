@@ -338,6 +338,9 @@ class Tracker:
         # Frames from which tracking still teaches the guided segmenters colours, in
         # order (a given model's first seconds, :meth:`_teaching_frames`).
         self._teach_at: list[int] = []
+        # The last frame segmented and its images (None for a view left out), which
+        # teaching reads instead of decoding them again (a video's reader has moved on).
+        self._segmented: tuple[int, list] = (-1, [])
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
         """Frames and views left out, and why (:mod:`hullcap._problems`)."""
@@ -360,6 +363,7 @@ class Tracker:
             return self._guided[i].mask(view.image, None if priors is None else priors[i], view.evidence)
 
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
+        self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
         segmented_masks = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks = []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
@@ -452,13 +456,16 @@ class Tracker:
         last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
         return _spread(list(range(first, last)), self.options.calibration_frames)[1:]
 
-    def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False) -> None:
+    def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False,
+                      images: list | None = None) -> None:
         """Teach the guided segmenters the subject's and background's colours from a frame
-        in which `model` is fitted at `pose` (`fresh`: forget what they knew); no-op when
+        in which `model` is fitted at `pose` (`fresh`: forget what they knew); `images`:
+        the frame's, when they were read already (None for a view left out). No-op when
         the silhouettes are not guided."""
         if not self._guides():
             return
-        for seg, img, sil in zip(self._guided, self._images(frame), self._silhouettes(model, pose)):
+        images = self._images(frame) if images is None else images
+        for seg, img, sil in zip(self._guided, images, self._silhouettes(model, pose)):
             if fresh:
                 seg.colours.clear()
             if img is not None:
@@ -753,9 +760,9 @@ class Tracker:
         if status != FAILED:
             state.remember_fit(best)
         self.seconds["fit"] += time.perf_counter() - t0
-        if passed and self._teach_at and frame >= self._teach_at[0]:
+        if passed and self._teach_at and frame >= self._teach_at[0] and self._segmented[0] == frame:
             self._teach_at = [f for f in self._teach_at if f > frame]
-            self.learn_colours(frame, state.guide, best.pose)
+            self.learn_colours(frame, state.guide, best.pose, images=self._segmented[1])
 
     def _fit_from(self, state: _State, target, start: PoseParameters, options: FitOptions,
                   model: BodyModel | None = None) -> FitResult:
