@@ -339,7 +339,7 @@ class Tracker:
         # order (a given model's first seconds, :meth:`_teaching_frames`).
         self._teach_at: list[int] = []
         # The last frame segmented and its images (None for a view left out), which
-        # teaching reads instead of decoding them again (a video's reader has moved on).
+        # teaching reads instead of decoding them again (a video camera's reader is the read-ahead thread's meanwhile).
         self._segmented: tuple[int, list] = (-1, [])
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
