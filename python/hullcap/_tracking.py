@@ -336,10 +336,11 @@ class Tracker:
         self._broken: set = set()  # (frame, camera) of views already left out
         self._ahead: ReadAhead | None = None
         # Frames from which tracking still teaches the guided segmenters colours, in
-        # order (a given model's first seconds, :meth:`_teaching_frames`).
+        # order (a given model's first seconds, `_teaching_frames`).
         self._teach_at: list[int] = []
         # The last frame segmented and its images (None for a view left out), which
-        # teaching reads instead of decoding them again (a video camera's reader is the read-ahead thread's meanwhile).
+        # teaching reads instead of decoding them again: a video camera's reader is the
+        # read-ahead thread's meanwhile.
         self._segmented: tuple[int, list] = (-1, [])
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
