@@ -149,6 +149,14 @@ def test_damaged_checkpoint_and_pose_say_what_to_do(clean, tmp_path, capsys):
     (out / ".checkpoint.npz").write_bytes(b"PK\x03\x04 not a zip")
     with pytest.raises(ResultsError, match="checkpoint is damaged.*--restart"):
         Tracker(seq, options=FAST).run(out, show_progress=False, frames=2)
+    # A readable checkpoint whose carried state does not fit the model.
+    with np.load(out / "pose.npz") as z:
+        arrays = dict(z)
+    np.savez(out / ".checkpoint.npz", **arrays, next_frame=1, sequence=str(clean.resolve()),
+             carried_reference=np.empty(0), carried_chain_reference=np.empty(0), carried_confirmed=np.empty(0),
+             carried_anchor=np.zeros(5), carried_search=np.asarray("{}"))
+    with pytest.raises(ResultsError, match=r"checkpoint is damaged \(an anchor of 5 numbers"):
+        Tracker(seq, options=FAST).run(out, show_progress=False, frames=2)
     data = (out / "pose.npz").read_bytes()
     (out / "pose.npz").write_bytes(data[: len(data) // 2])
     assert main(["export", str(out), "--format", "bvh"]) == 2

@@ -259,6 +259,45 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
     assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
 
 
+def test_the_state_a_checkpoint_carries_comes_back_whole(model):
+    # The references, the confirmed bar, the anchor and the search's random draws: what
+    # the results alone do not say, through a checkpoint's arrays and back.
+    import io
+
+    from hullcap._tracking import _State
+
+    def state_of():
+        return _State(model, TrackerOptions(), anchor=None)
+
+    state = state_of()
+    chains = len(state.chains)
+    rng = np.random.default_rng(3)
+    state.reference.extend(rng.uniform(0.6, 0.9, 4))
+    state.chain_reference.extend(rng.uniform(0.6, 0.9, (4, chains)))
+    state.chain_reference[1][2] = np.nan  # a chain too small to judge
+    state.confirmed = (0.71, rng.uniform(0.6, 0.9, chains))
+    state.anchor_pose = PoseParameters(rng.normal(0, 0.1, len(model.dof_names)), np.eye(3)[[1, 0, 2]] * [1, 1, -1],
+                                       np.array([0.1, -0.2, 0.9]))
+    state.search._rng.uniform(size=5)  # draws move the search's generator on
+    buf = io.BytesIO()
+    np.savez(buf, **state.carried())
+    buf.seek(0)
+    back = state_of()
+    back.take_back(dict(np.load(buf)))
+    assert list(back.reference) == list(state.reference)
+    assert np.array_equal(np.array(back.chain_reference), np.array(state.chain_reference), equal_nan=True)
+    assert back.confirmed[0] == state.confirmed[0] and np.array_equal(back.confirmed[1], state.confirmed[1])
+    for name in ("theta", "root_rotation", "root_translation"):
+        assert np.array_equal(getattr(back.anchor_pose, name), getattr(state.anchor_pose, name))
+    assert np.array_equal(back.search._rng.uniform(size=3), state.search._rng.uniform(size=3))
+    # Nothing confirmed and no anchor yet come back as nothing.
+    empty = state_of()
+    empty.take_back(state_of().carried())
+    assert empty.confirmed is None and empty.anchor_pose is None and not empty.reference
+    with pytest.raises(ValueError, match="an anchor of 5 numbers"):
+        state_of().take_back({**state.carried(), "carried_anchor": np.zeros(5)})
+
+
 def test_a_given_model_teaches_the_guided_masks_colours_as_it_goes(short_sequence, tmp_path, monkeypatch):
     # Placed at one frame, a given model's segmenters know that frame's colours alone;
     # tracking teaches them from calibration_frames frames over calibration_seconds, as a

@@ -26,6 +26,7 @@ small steps along that valley, rarely crosses from the first to the second.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass
 
@@ -176,6 +177,16 @@ class PoseSearch:
         names = model.joint_names
         self._arms = [(names.index(f"{s}_shoulder"), names.index(f"{s}_wrist")) for s in "lr"
                       if f"{s}_shoulder" in names and f"{s}_wrist" in names]
+
+
+    @property
+    def random_state(self) -> str:
+        """Where its random draws stand, as JSON (a checkpoint's); set it to go on from there."""
+        return json.dumps(self._rng.bit_generator.state)
+
+    @random_state.setter
+    def random_state(self, state: str) -> None:
+        self._rng.bit_generator.state = json.loads(state)
 
     def girdle_start(self, pose: PoseParameters) -> PoseParameters | None:
         """`pose` with each raised arm's elevation shared between the shoulder and the

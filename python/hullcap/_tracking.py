@@ -61,9 +61,12 @@ from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
 
-# The checkpoint's arrays of what a run learnt besides its results (Tracker._learnt).
+# The checkpoint's arrays of what a run learnt besides its results (Tracker._learnt),
+# and of what tracking carries from frame to frame (_State.carried).
 LEARNT_TEACH_AT = "learnt_teach_at"
 LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
+CARRIED_REFERENCE, CARRIED_CHAIN_REFERENCE = "carried_reference", "carried_chain_reference"
+CARRIED_CONFIRMED, CARRIED_ANCHOR, CARRIED_SEARCH = "carried_confirmed", "carried_anchor", "carried_search"
 CHECKPOINT = ".checkpoint.npz"
 PROBLEMS = "problems.json"
 
@@ -527,7 +530,7 @@ class Tracker:
         out.mkdir(parents=True, exist_ok=True)
         self.problems.warn = show_progress
         n = self._frames_to_track(frames)
-        result, start = self._resume(out, n) if resume else (None, 0)
+        result, start, state = self._resume(out, n) if resume else (None, 0, None)
         if result is None:
             t0, before = time.perf_counter(), dict(self.seconds)
             model, start, anchor = self._subject(n, show_progress)
@@ -541,18 +544,15 @@ class Tracker:
             tracked.save(out / "model")
             result = TrackingResult.empty(tracked, n, self.sequence.fps)
             state = self._tracking_state(tracked, start, anchor, built=model)
-        else:
-            state = self._tracking_state(result.model)
-            state.remember(result, start)
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
         with self._reading_ahead(range(start, n)):
             for frame in bar:
                 self._track(state, result, frame)
                 if frame % 10 == 0:
-                    self._checkpoint(out, result, frame + 1)
+                    self._checkpoint(out, result, frame + 1, state)
         bar.close()
-        self._checkpoint(out, result, n)
+        self._checkpoint(out, result, n, state)
         result.seconds = dict(self.seconds)
         write_outputs(out, result, interpolate, smooth_hz)
         write_report(out / "report.png", result)
@@ -774,10 +774,10 @@ class Tracker:
                                                      state.options.motion_prior_distance)
         return fit(model or state.model, target, start, options, prior=prior)
 
-    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int) -> None:
+    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, state: _State) -> None:
         buf = io.BytesIO()
         np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays(),
-                 **self._learnt())
+                 **self._learnt(), **state.carried())
         self.problems.save(out / PROBLEMS)
         atomic_write(out / CHECKPOINT, buf.getvalue())
 
@@ -802,22 +802,29 @@ class Tracker:
                 g.colours.restore(subject, background)
 
     def _resume(self, out: Path, n: int):
+        """``(result, next frame, state)`` of the checkpoint in `out`, or ``(None, 0, None)``
+        when there is none for this sequence."""
         path = out / CHECKPOINT
         if not path.is_file() or not (out / "model").is_dir():
-            return None, 0
+            return None, 0, None
         try:
             with np.load(path) as z:
                 if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
-                    return None, 0
+                    return None, 0, None
                 arrays = {k: z[k] for k in z.files}
             self._relearn(arrays)
-        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+            result, start = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays), int(arrays["next_frame"])
+            state = self._tracking_state(result.model)
+            if CARRIED_SEARCH in arrays:
+                state.take_back(arrays)
+            else:  # written before the state was carried
+                state.remember(result, start)
+        except (OSError, ValueError, TypeError, KeyError, EOFError, zipfile.BadZipFile) as e:
             raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
                                f"(resume=False) to start over") from None
-        result = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays)
         if (out / PROBLEMS).is_file():
             self.problems.extend(ProblemLog.load(out / PROBLEMS))
-        return result, int(arrays["next_frame"])
+        return result, start, state
 
 
 @dataclass
@@ -895,6 +902,35 @@ class _State:
         self._medians = None
         if done:
             self.anchor_pose = result.pose(done[0])
+
+    def carried(self) -> dict:
+        """What the state carries that the results do not hold, as a checkpoint's arrays
+        (:meth:`take_back`): the references, the confirmed bar, the anchor and where the
+        search's random draws stand."""
+        anchor = self.anchor_pose
+        return {
+            CARRIED_REFERENCE: np.asarray(self.reference, float),
+            CARRIED_CHAIN_REFERENCE: np.asarray(self.chain_reference, float).reshape(-1, len(self.chains)),
+            CARRIED_CONFIRMED: np.empty(0) if self.confirmed is None else np.r_[self.confirmed[0], self.confirmed[1]],
+            CARRIED_ANCHOR: np.empty(0) if anchor is None else
+            np.r_[anchor.theta, np.ravel(anchor.root_rotation), anchor.root_translation],
+            CARRIED_SEARCH: np.asarray(self.search.random_state),
+        }
+
+    def take_back(self, arrays: dict) -> None:
+        """The state as :meth:`carried` left it (resume); KeyError or ValueError when
+        `arrays` do not hold it."""
+        self.reference.extend(np.asarray(arrays[CARRIED_REFERENCE], float))
+        self.chain_reference.extend(np.asarray(arrays[CARRIED_CHAIN_REFERENCE], float).reshape(-1, len(self.chains)))
+        confirmed = np.asarray(arrays[CARRIED_CONFIRMED], float)
+        self.confirmed = (float(confirmed[0]), confirmed[1:]) if len(confirmed) else None
+        anchor, n = np.asarray(arrays[CARRIED_ANCHOR], float), len(self.model.dof_names)
+        if len(anchor) not in (0, n + 12):
+            raise ValueError(f"an anchor of {len(anchor)} numbers for a model of {n} DOF")
+        self.anchor_pose = PoseParameters(anchor[:n], anchor[n:n + 9].reshape(3, 3), anchor[n + 9:]) \
+            if len(anchor) else None
+        self.search.random_state = str(arrays[CARRIED_SEARCH])
+        self._medians = None
 
     def anchor_only(self, result: TrackingResult, frame: int) -> bool:
         """Whether nothing before `frame` was tracked and the anchor is the prediction."""
