@@ -178,7 +178,6 @@ class PoseSearch:
         self._arms = [(names.index(f"{s}_shoulder"), names.index(f"{s}_wrist")) for s in "lr"
                       if f"{s}_shoulder" in names and f"{s}_wrist" in names]
 
-
     @property
     def random_state(self) -> str:
         """Where its random draws stand, as JSON (a checkpoint's); set it to go on from there."""
