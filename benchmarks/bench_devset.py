@@ -11,8 +11,12 @@ frames lost, frames re-acquired and frames/s. Each run's folder also gets ``fram
 per frame the status, the fit's quality both ways and the true mean joint error.
 ``--every K`` tracks every K-th frame only, the same motion filmed at 1/K of the frame
 rate: K times as far between frames for the prediction and the guided masks.
+``--models-from RUNS`` gives each run the subject's model of the same run in the folder
+``RUNS`` (an earlier ``--out``) instead of building it, as ``hullcap track --model`` and
+every take of a batch after its calibration take do.
 
     .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface] [--every K]
+        [--models-from RUNS]
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
+from hullcap._body import BodyModel  # noqa: E402
 from hullcap._results import RECOVERED, STATUS_NAMES  # noqa: E402
 from hullcap._sequence import Sequence  # noqa: E402
 from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
@@ -46,16 +51,17 @@ class SurfaceTracker(Tracker):
 
 
 def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions,
-        every: int = 1) -> dict:
+        every: int = 1, models_from: Path | None = None) -> dict:
     seq_path = devset.subsampled(devset.render(devset_dir, name), every)
     seq = Sequence(seq_path)
     run_dir = out / f"{seq_path.name}-{mode}"  # d01_bend-colour, d01_bend-every3-colour
     truth = devset.Truth.load(devset_dir, seq_path)
     options = replace(options, use_silhouettes=mode != "colour")
+    model = None if models_from is None else BodyModel.load(models_from / run_dir.name / "model")
     if mode == "surface":
-        tracker = SurfaceTracker(seq, options=replace(options, hand_reach=1.0))
+        tracker = SurfaceTracker(seq, model=model, options=replace(options, hand_reach=1.0))
     else:
-        tracker = Tracker(seq, options=options)
+        tracker = Tracker(seq, model=model, options=options)
     t0 = time.perf_counter()
     result = tracker.run(run_dir, resume=False, show_progress=True, frames=frames)
     seconds = time.perf_counter() - t0
@@ -106,6 +112,8 @@ def main():
     ap.add_argument("--json", help="also write the rows as JSON here")
     ap.add_argument("--no-refine-joints", dest="refine", action="store_false",
                     help="build the subject model from the calibration pose only")
+    ap.add_argument("--models-from", metavar="RUNS",
+                    help="give each run the subject's model of the same run in RUNS (an earlier --out)")
     args = ap.parse_args()
     devset_dir = devset.find(args.devset)
     if devset_dir is None:
@@ -115,7 +123,8 @@ def main():
     rows, options = [], TrackerOptions(refine_joints=args.refine)
     for name in args.only or devset.names(devset_dir):
         for mode in args.silhouettes:
-            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, options, args.every))
+            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, options, args.every,
+                            None if args.models_from is None else Path(args.models_from)))
             print(table(rows[-1:]).splitlines()[-1], flush=True)
     print("\n" + table(rows))
     print("\nper joint, raw (mm):")
