@@ -146,8 +146,8 @@ class TrackerOptions:
             frames of them, give it the subject's surface (``subject.surface_reach``), and
             track from the start with the refined model.
         calibration_seconds, calibration_frames: see `refine_joints`. Without it, or
-            with a model given, tracking teaches the guided masks' colours from as many
-            frames over as many seconds as it goes: over the development set with each
+            with a model given, the guided masks know one frame's colours, and tracking
+            teaches them from as many frames over as many seconds as it goes: over the development set with each
             sequence's model given, from colour frames, 23.0 / 15.4 mm → 22.6 / 14.9 and
             d01's one lost frame tracked (docs/accuracy.md). Where a knee sits
             shows only in frames where it bends (:func:`hullcap._subject.bent_frames`),
@@ -338,8 +338,9 @@ class Tracker:
         self._guided = None
         self._broken: set = set()  # (frame, camera) of views already left out
         self._ahead: ReadAhead | None = None
-        # Frames from which tracking still teaches the guided segmenters colours, in
-        # order (a given model's first seconds, `_teaching_frames`).
+        # How many frames' colours the guided segmenters know since they last forgot, and
+        # the frames from which tracking still teaches them, in order (`_teaching_frames`).
+        self._colour_frames = 0
         self._teach_at: list[int] = []
         # The last frame segmented and its images (None for a view left out), which
         # teaching reads instead of decoding them again: a video camera's reader is the
@@ -450,15 +451,20 @@ class Tracker:
         """Whether silhouettes are guided by the model."""
         return not self._given_silhouettes and self._segmenters() is not None
 
+    def _window_end(self, first: int, n: int) -> int:
+        """The frame after the first `calibration_seconds` from `first` (at most `n`)."""
+        return min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
+
     def _teaching_frames(self, first: int, n: int) -> list[int]:
         """The frames after `first`, spread over the first `calibration_seconds`, from which
-        tracking teaches the guided segmenters colours as it goes, where the subject's model
-        was not refined here (given, or ``refine_joints`` off): it was placed at one frame,
-        whose colours alone the segmenters know, while a refined model's window taught them
-        from `calibration_frames` frames (:meth:`_refine`), the bends of the body among
-        them. Each is taught at the first frame from it on that passes without a search."""
-        last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
-        return _spread(list(range(first, last)), self.options.calibration_frames)[1:]
+        tracking teaches the guided segmenters colours as it goes, when they know fewer than
+        `calibration_frames` frames' colours. A refined model's window taught them that many
+        (:meth:`_refine`), the bends of the body among them; a given model, or one built
+        without ``refine_joints``, was placed at one frame, whose colours alone they know.
+        Each is taught at the first frame from it on that passes without a search."""
+        if not self._guides() or self._colour_frames >= self.options.calibration_frames:
+            return []
+        return _spread(list(range(first, self._window_end(first, n))), self.options.calibration_frames)[1:]
 
     def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False,
                       images: list | None = None) -> None:
@@ -469,6 +475,7 @@ class Tracker:
         if not self._guides():
             return
         images = self._images(frame) if images is None else images
+        self._colour_frames = 1 if fresh else self._colour_frames + 1
         for seg, img, sil in zip(self._guided, images, self._silhouettes(model, pose)):
             if fresh:
                 seg.colours.clear()
@@ -534,8 +541,7 @@ class Tracker:
         if result is None:
             t0, before = time.perf_counter(), dict(self.seconds)
             model, start, anchor = self._subject(n, show_progress)
-            refined = self.model is None and self.options.refine_joints  # its window taught the colours
-            self._teach_at = [] if refined else self._teaching_frames(start, n)
+            self._teach_at = self._teaching_frames(start, n)
             # The subject's frames (the calibration pass too) count as 'subject' only, so
             # that the per-stage seconds are those of tracking the sequence once.
             self.seconds = defaultdict(float, before)
@@ -640,7 +646,7 @@ class Tracker:
         most (:func:`hullcap._subject.search_centres`), give it the subject's own surface
         (:func:`hullcap._subject.fitted_surface`), and return the refined model with its
         pose at `first`."""
-        last = min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
+        last = self._window_end(first, n)
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
         # The model is built from these poses: full fits (the girdle start's too, kept only
         # when it explains the hull better), and a search whenever one is not good. The
@@ -924,7 +930,7 @@ class _State:
         self.chain_reference.extend(np.asarray(arrays[CARRIED_CHAIN_REFERENCE], float).reshape(-1, len(self.chains)))
         confirmed = np.asarray(arrays[CARRIED_CONFIRMED], float)
         self.confirmed = (float(confirmed[0]), confirmed[1:]) if len(confirmed) else None
-        anchor, n = np.asarray(arrays[CARRIED_ANCHOR], float), len(self.model.dof_names)
+        anchor, n = np.asarray(arrays[CARRIED_ANCHOR], float), self.model.n_dofs
         if len(anchor) not in (0, n + 12):
             raise ValueError(f"an anchor of {len(anchor)} numbers for a model of {n} DOF")
         self.anchor_pose = PoseParameters(anchor[:n], anchor[n:n + 9].reshape(3, 3), anchor[n + 9:]) \
