@@ -1,12 +1,14 @@
 """Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, an EasyMocap or
-Pose2Sim calibration, links.json or pose.npz either load or raise an exception of the
-hullcap family (hullcap.errors.HullcapError), never another one.
+Pose2Sim calibration, links.json, a body model's mesh.npz or pose.npz either load or
+raise an exception of the hullcap family (hullcap.errors.HullcapError), never another one.
 
-Inputs are random bytes, valid files with bytes changed, cut or inserted, and (for the
-JSON formats) valid documents with one value replaced by arbitrary JSON. The number of
-examples is bounded so that the whole module runs in well under a minute.
+Inputs are random bytes, valid files with bytes changed, cut or inserted, (for the JSON
+formats) valid documents with one value replaced by arbitrary JSON, and (for mesh.npz) a
+valid archive with one array replaced by an arbitrary small one. The number of examples
+is bounded so that the whole module runs in well under a minute.
 """
 
+import atexit
 import io
 import json
 import os
@@ -22,6 +24,7 @@ from hullcap._results import load_result
 from hullcap.errors import HullcapError
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
 # CI runs a fixed, reproducible set (derandomized); HULLCAP_FUZZ_EXAMPLES=5000 explores further.
 EXAMPLES = int(os.environ.get("HULLCAP_FUZZ_EXAMPLES", "60"))
@@ -154,7 +157,37 @@ def _pose_npz() -> bytes:
 
 POSE = _pose_npz()
 MODEL = tempfile.mkdtemp(prefix="hullcap-fuzz-model-")
+atexit.register(shutil.rmtree, MODEL, ignore_errors=True)
 BodyModel.template().save(MODEL)
+MESH = (Path(MODEL) / "mesh.npz").read_bytes()
+with np.load(io.BytesIO(MESH)) as _z:
+    MESH_ARRAYS = {k: _z[k] for k in _z.files}
+ANY_ARRAY = hnp.arrays(st.sampled_from([np.float64, np.int32, np.int64, np.bool_, np.dtype("U3")]),
+                       hnp.array_shapes(min_dims=0, max_dims=2, min_side=0, max_side=4))
+
+
+def model_loads_or_hullcap_error(mesh: bytes):
+    with tempfile.TemporaryDirectory() as tmp:
+        shutil.copy(Path(MODEL) / "links.json", Path(tmp) / "links.json")
+        (Path(tmp) / "mesh.npz").write_bytes(mesh)
+        try:
+            BodyModel.load(tmp)
+        except HullcapError:
+            pass
+
+
+@FUZZ
+@given(mutated(MESH))
+def test_mesh_npz(data):
+    model_loads_or_hullcap_error(data)
+
+
+@FUZZ
+@given(st.sampled_from(sorted(MESH_ARRAYS)), ANY_ARRAY)
+def test_mesh_npz_with_one_array_replaced(name, value):
+    buf = io.BytesIO()
+    np.savez(buf, **{**MESH_ARRAYS, name: value})
+    model_loads_or_hullcap_error(buf.getvalue())
 
 
 @FUZZ
@@ -183,5 +216,6 @@ def test_the_valid_files_load():
         (tmp / "Calib.toml").write_bytes(POSE2SIM)
         assert Cameras.from_pose2sim(tmp / "Calib.toml").names == ["cam_01"]
         shutil.copytree(MODEL, tmp / "model")
+        assert len(BodyModel.load(tmp / "model").vertices) == len(MESH_ARRAYS["vertices"])
         (tmp / "pose.npz").write_bytes(POSE)
         assert len(load_result(tmp).failed) == 3

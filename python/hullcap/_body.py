@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._engine import Rig, skin_weights
-from hullcap._files import atomic_write
+from hullcap._files import atomic_write, read_npz
 from hullcap._links import DATA, LinkModel
 from hullcap._mesh import is_closed, vertex_normals
 from hullcap._shape import ShapeBasis
@@ -296,17 +296,15 @@ class BodyModel:
             raise ModelError(f"{path}: not a body model folder (expected links.json and mesh.npz)")
         links = LinkModel.load(path / "links.json")
         mesh = path / "mesh.npz"
-        try:
-            with np.load(mesh) as z:
-                arrays = {k: z[k] for k in ("vertices", "faces", "skin_index", "skin_weight",
-                                            "skin_b", "skin_k")}
-        except (OSError, KeyError, ValueError) as e:
-            raise ModelError(f"{mesh}: not a hullcap body mesh ({e})") from e
+        arrays = read_npz(mesh, ModelError, "hullcap body mesh")
+        missing = {"vertices", "faces", "skin_index", "skin_weight", "skin_b", "skin_k"} - arrays.keys()
+        if missing:
+            raise ModelError(f"{mesh}: not a hullcap body mesh (missing {sorted(missing)})")
         try:
             return cls(links, arrays["vertices"], arrays["faces"],
                        skin=(arrays["skin_index"], arrays["skin_weight"]),
                        b=float(arrays["skin_b"]), k=int(arrays["skin_k"]))
-        except ValueError as e:
+        except (ValueError, TypeError) as e:  # TypeError: skin_b or skin_k not one number
             raise ModelError(f"{mesh}: {e}") from e
 
 
@@ -328,11 +326,20 @@ def _root(rotation, translation):
 
 def _array(value, name, dtype, shape) -> np.ndarray:
     try:
-        a = np.ascontiguousarray(value, dtype=dtype)
+        a = np.asarray(value)
+        if a.dtype.kind == "f" and not np.isfinite(a).all():  # asked before a cast to integers
+            raise ModelError(f"{name} holds NaN or inf")
+        if a.dtype.kind == "f" and np.dtype(dtype).kind in "iu":
+            limits = np.iinfo(dtype)
+            if not ((a == np.round(a)) & (a >= limits.min) & (a <= limits.max)).all():
+                raise ModelError(f"{name} must hold whole numbers within {limits.min}..{limits.max}")
+        a = np.ascontiguousarray(a, dtype=dtype)
+    except ModelError:
+        raise
     except (TypeError, ValueError) as e:
         raise ModelError(f"{name}: not an array of numbers ({e})") from e
-    if a.ndim != len(shape) or any(s not in (-1, d) for s, d in zip(shape, a.shape)):
-        raise ModelError(f"{name} must have shape {tuple('N' if s < 0 else s for s in shape)}, got {a.shape}")
     if a.dtype.kind == "f" and not np.isfinite(a).all():
         raise ModelError(f"{name} holds NaN or inf")
+    if a.ndim != len(shape) or any(s not in (-1, d) for s, d in zip(shape, a.shape)):
+        raise ModelError(f"{name} must have shape {tuple('N' if s < 0 else s for s in shape)}, got {a.shape}")
     return a

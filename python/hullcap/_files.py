@@ -1,5 +1,5 @@
-"""Reading documents with errors that name the file, and atomic writes: a reader sees
-the old file or the whole new one, never a part."""
+"""Reading documents and NumPy archives with errors that name the file, and atomic
+writes: a reader sees the old file or the whole new one, never a part."""
 
 from __future__ import annotations
 
@@ -7,8 +7,16 @@ import json
 import os
 import tempfile
 import tomllib
+import zipfile
+import zlib
 from collections.abc import Callable
 from pathlib import Path
+
+import numpy as np
+
+NPZ_ERRORS = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error)
+"""What reading a damaged ``.npz`` raises: not a zip, a cut member, bad compressed data,
+a missing array, a header NumPy does not accept."""
 
 
 def _umask() -> int:
@@ -66,3 +74,14 @@ def read_document(path, error: type[Exception] = ValueError) -> dict:
     if not isinstance(doc, dict):
         raise error(f"{path}: expected a {'table' if toml else 'JSON object'} at the top, got {type(doc).__name__}")
     return doc
+
+
+def read_npz(path, error: type[Exception] = ValueError, what: str = "readable NumPy archive") -> dict:
+    """Every array of the ``.npz`` file `path`; `error` (one of :mod:`hullcap.errors`)
+    names the file and says it is not a `what` when it cannot be read."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except NPZ_ERRORS as e:
+        raise error(f"{path}: not a {what} ({e})") from None

@@ -13,14 +13,13 @@ the raw results are always kept.
 from __future__ import annotations
 
 import io
-import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from hullcap._body import BodyModel
-from hullcap._files import atomic_write
+from hullcap._files import atomic_write, read_npz
 from hullcap._fitting import FitResult, PoseParameters
 from hullcap.errors import OptionsError, ResultsError
 from hullcap.export._bvh import write_bvh
@@ -238,11 +237,9 @@ def load_result(out) -> TrackingResult:
     if not path.is_file():
         raise ResultsError(f"{out}: no pose.npz: not the results folder of a finished `hullcap track` run")
     try:
-        with np.load(path) as z:
-            a = {k: z[k] for k in z.files}
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
-        raise ResultsError(f"{path}: not a readable pose.npz ({e}); track the sequence again "
-                           f"(hullcap track --restart) to rewrite it") from None
+        a = read_npz(path, ResultsError, "readable pose.npz")
+    except ResultsError as e:
+        raise ResultsError(f"{e}; track the sequence again (hullcap track --restart) to rewrite it") from None
     model = BodyModel.load(out / "model")
     missing = {"root_translation", "root_rotation", "theta", "failed", "iterations", "fps"} - a.keys()
     if missing:

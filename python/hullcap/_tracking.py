@@ -33,7 +33,6 @@ import io
 import math
 import time
 import warnings
-import zipfile
 from collections import defaultdict, deque
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
@@ -43,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._body import BodyModel
-from hullcap._files import atomic_write
+from hullcap._files import NPZ_ERRORS, atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
 from hullcap._guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap._hull import HullReport, capture_volume, check_bounds, visual_hull
@@ -825,7 +824,7 @@ class Tracker:
                 state.take_back(arrays)
             else:  # written before the state was carried
                 state.remember(result, start)
-        except (OSError, ValueError, TypeError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        except (*NPZ_ERRORS, TypeError) as e:
             raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
                                f"(resume=False) to start over") from None
         if (out / PROBLEMS).is_file():
