@@ -1,6 +1,7 @@
-"""Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, an EasyMocap or
-Pose2Sim calibration, links.json, a body model's mesh.npz or pose.npz either load or
-raise an exception of the hullcap family (hullcap.errors.HullcapError), never another one.
+"""Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, a sequence's
+meta.json, an EasyMocap or Pose2Sim calibration, links.json, a body model's mesh.npz or
+pose.npz either load or raise an exception of the hullcap family
+(hullcap.errors.HullcapError), never another one.
 
 Inputs are random bytes, valid files with bytes changed, cut or inserted, (for the JSON
 formats) valid documents with one value replaced by arbitrary JSON, and (for mesh.npz) a
@@ -21,8 +22,9 @@ from hullcap import BodyModel
 from hullcap._cameras import Cameras, ring
 from hullcap._links import LinkModel
 from hullcap._results import load_result
+from hullcap._sequence import Sequence
 from hullcap.errors import HullcapError
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -102,6 +104,28 @@ def test_cameras_json(data):
 
 
 LINKS = LinkModel.standard().to_dict()
+
+
+META = {"fps": 30, "frames": 3}
+
+
+@FUZZ
+@given(st.one_of(mutated(json.dumps(META).encode()), with_one_value_replaced(META)))
+@example(b'{"fps": 30, "frames": Infinity}')
+@example(b'{"fps": 1e400, "frames": 3}')
+@example(b'{"fps": 30, "frames": 1' + b"0" * 400 + b"}")
+def test_meta_json(data):
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "cameras.json").write_text(json.dumps(CAMERAS_JSON))
+        for cam in CAMERAS:
+            (tmp / "frames" / cam.name).mkdir(parents=True)
+        (tmp / "meta.json").write_bytes(data)
+        try:
+            seq = Sequence(tmp)
+        except HullcapError:
+            return
+        assert 0 < seq.fps < np.inf and len(seq) >= 1
 
 
 @FUZZ

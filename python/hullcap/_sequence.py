@@ -11,6 +11,7 @@ frames each camera has on disk (``meta.json`` may claim more).
 
 from __future__ import annotations
 
+import math
 import re
 from pathlib import Path
 
@@ -39,11 +40,13 @@ class Sequence:
         meta = read_document(meta_path, SequenceError)
         try:
             self.fps = float(meta["fps"])
-            self.n_frames = int(meta["frames"])
-        except (KeyError, TypeError, ValueError) as e:
+            frames = float(meta["frames"])
+        except (KeyError, TypeError, ValueError, OverflowError) as e:
             raise SequenceError(f"{meta_path}: needs {{\"fps\": …, \"frames\": …}} ({e!r})") from e
-        if not (self.fps > 0 and self.n_frames > 0):
-            raise SequenceError(f"{meta_path}: fps and frames must be positive")
+        if not (0 < self.fps < math.inf and 0 < frames < math.inf and frames == int(frames)):
+            raise SequenceError(f"{meta_path}: fps must be a positive number and frames a positive whole number, "
+                                f"got {meta['fps']!r} and {meta['frames']!r}")
+        self.n_frames = int(frames)
         self._videos: dict[str, cv2.VideoCapture] = {}
         self._video_pos: dict[str, int] = {}
         for cam in self.cameras:
