@@ -120,6 +120,8 @@ def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_pat
     ("[takes]\na = { frames = 0 }\n", "[takes] a: frames must be a whole number of frames, at least 1"),
     ("[takes]\na = { volume = [0, 0, 0] }\n", "volume must be six numbers"),
     ("[takes]\na = { hand_reach = 1.5 }\n", "hand_reach must be a fraction in (0, 1], got 1.5"),
+    ("[defaults]\nvoxel = inf\n", "[defaults]: voxel must be a positive number, got inf"),
+    ("[takes]\na = { volume = [0, 0, 0, 1, 1, nan] }\n", "volume must be six numbers"),
     ("[takes]\na = \"nobody\"\n", "subject 'nobody' has no calibration take in [subjects]"),
     ("[subjects]\np = \"c\"\n", "[subjects] p: "),
     ("[subjects]\np = \"../a\"\n", "must be the name of a folder directly in the session"),

@@ -14,6 +14,7 @@ empty while others see the subject is reported and left out.
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -112,8 +113,8 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     report = report if report is not None else HullReport()
     if len(masks) != len(cameras):
         raise HullError(f"{len(masks)} masks for {len(cameras)} cameras")
-    if not voxel_size > 0:
-        raise HullError(f"voxel_size must be positive, got {voxel_size}")
+    if not 0 < voxel_size < math.inf:
+        raise HullError(f"voxel_size must be a positive number of metres, got {voxel_size}")
     if priors is not None and len(priors) != len(cameras):
         raise HullError(f"{len(priors)} priors for {len(cameras)} cameras")
     if tolerance < 0:
@@ -136,6 +137,10 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     if report.skipped:
         warnings.warn(f"visual hull: views left out: {report.skipped}", stacklevel=2)
     lo, hi = check_bounds(bounds) if bounds is not None else capture_volume(cameras)
+    side = float(np.max(hi - lo)) / voxel_size
+    if side > MAX_VOXELS_A_SIDE:
+        raise HullError(f"voxel_size {voxel_size} m gives {side:.3g} voxels along the capture volume "
+                        f"{format_bounds((lo, hi))}, more than {MAX_VOXELS_A_SIDE} (a size in metres?)")
     t0 = time.perf_counter()
     tolerance = min(tolerance, max(0, len(views) - 4))
     origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views, tolerance)
@@ -147,6 +152,11 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     surface = _mesh(occupancy, origin, voxel_size, smooth)
     report.mesh_seconds = time.perf_counter() - t0
     return surface
+
+
+MAX_VOXELS_A_SIDE = 4096
+"""The most voxels along the capture volume's longest side (1 mm over 4 m): the carving's
+coarsest cells and the kept box's finest voxels grow with it, a billion voxels before it."""
 
 
 def _carve(views, lo, hi, h, report, min_views, tolerance):

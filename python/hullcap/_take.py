@@ -8,6 +8,7 @@ both call it, so that a take tracked in a batch gives the same files as on its o
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
@@ -87,10 +88,10 @@ def _checked(key: str, value, where: str):
         return value
     if key == "volume":
         if (not isinstance(value, list) or len(value) != 6
-                or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in value)):
+                or not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
             raise bad("six numbers [x0, y0, z0, x1, y1, z1] in metres")
         return tuple(float(v) for v in value)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
         raise bad("a positive number")
     if key == "hand_reach" and value > 1:
         raise bad("a fraction in (0, 1]")

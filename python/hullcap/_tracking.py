@@ -296,8 +296,8 @@ class TrackerOptions:
     def __post_init__(self):
         if self.background not in ("statistical", "mog2"):
             raise OptionsError(f"background must be 'statistical' or 'mog2', got {self.background!r}")
-        if not self.voxel_size > 0:
-            raise OptionsError(f"voxel_size must be positive, got {self.voxel_size}")
+        if not 0 < self.voxel_size < math.inf:
+            raise OptionsError(f"voxel_size must be a positive number of metres, got {self.voxel_size}")
         if self.motion_sigma is not None and not (self.motion_sigma > 0 and self.motion_prior_distance >= 0):
             raise OptionsError(f"motion_sigma must be positive (or None) and motion_prior_distance >= 0, got "
                                f"{self.motion_sigma} and {self.motion_prior_distance}")
