@@ -14,7 +14,7 @@ from hullcap import Sequence, Tracker, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._synth import synthesize
-from hullcap.errors import ResultsError, SequenceError
+from hullcap.errors import OptionsError, ResultsError, SequenceError
 
 FRAMES = 8
 FAST = TrackerOptions(refine_joints=False)
@@ -164,3 +164,19 @@ def test_damaged_checkpoint_and_pose_say_what_to_do(clean, tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     assert main(["export", str(tmp_path / "empty"), "--format", "bvh"]) == 2
     assert "no pose.npz: not the results folder" in capsys.readouterr().err
+
+
+def test_bad_run_options_are_refused_before_anything_is_tracked(clean, tmp_path):
+    """A cut-off beyond half the frame rate, or no frames to track, is said at once, not
+    after the sequence was tracked; nothing is written. The same for synthesize."""
+    tracker = Tracker(Sequence(clean), options=FAST)
+    for kwargs, message in (({"smooth_hz": 20.0}, "between 0 and half the frame rate"),
+                            ({"smooth_hz": float("nan")}, "between 0 and half the frame rate"),
+                            ({"frames": 0}, "frames must be at least 1")):
+        with pytest.raises(OptionsError, match=message):
+            tracker.run(tmp_path / "out", show_progress=False, **kwargs)
+        assert not (tmp_path / "out").exists()
+    for kwargs in ({"fps": float("inf")}, {"noise": float("nan")}, {"frames": 0}):
+        with pytest.raises(OptionsError):
+            synthesize(tmp_path / "synth", "squat", 4, show_progress=False, **kwargs)
+        assert not (tmp_path / "synth").exists()

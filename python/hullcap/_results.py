@@ -166,6 +166,12 @@ class TrackingResult:
         return out
 
 
+def check_cutoff(cutoff_hz: float, fps: float) -> None:
+    """OptionsError unless `cutoff_hz` lies between 0 and half the frame rate `fps`."""
+    if not 0 < cutoff_hz < fps / 2:
+        raise OptionsError(f"the cut-off must lie between 0 and half the frame rate ({fps / 2:g} Hz), got {cutoff_hz}")
+
+
 def smooth_joints(joints: np.ndarray, fps: float, cutoff_hz: float, order: int = 4) -> np.ndarray:
     """Zero-lag low-pass filter of joint trajectories, as biomechanics analyses expect: a
     Butterworth filter of `order` run forwards and backwards (so the effective order is
@@ -181,8 +187,7 @@ def smooth_joints(joints: np.ndarray, fps: float, cutoff_hz: float, order: int =
     """
     from scipy.signal import butter, filtfilt
 
-    if not 0 < cutoff_hz < fps / 2:
-        raise OptionsError(f"the cut-off must lie between 0 and half the frame rate ({fps / 2:g} Hz), got {cutoff_hz}")
+    check_cutoff(cutoff_hz, fps)
     joints = np.asarray(joints, float)
     b, a = butter(order, cutoff_hz / (fps / 2))
     out = joints.copy()

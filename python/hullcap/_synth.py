@@ -10,6 +10,7 @@ truth it is given. :func:`synthesize` drives the template body through a scripte
 
 from __future__ import annotations
 
+import math
 import json
 from collections.abc import Iterable
 from pathlib import Path
@@ -187,6 +188,11 @@ def synthesize(out, motion: str = "demo", cameras: int | Cameras = 8, subject: s
     """
     if subject not in SUBJECTS:
         raise OptionsError(f"unknown subject {subject!r}; subjects: {sorted(SUBJECTS)}")
+    if not (0 < fps < math.inf and 0 <= noise < math.inf):
+        raise OptionsError(f"fps must be a positive number and noise (grey levels) a number >= 0, "
+                           f"got {fps} and {noise}")
+    if frames is not None and frames < 1:
+        raise OptionsError(f"frames must be at least 1, got {frames}")
     if isinstance(cameras, int):
         cameras = ring(cameras, width=width, height_px=height)
     model = BodyModel.template()

@@ -50,7 +50,7 @@ from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
 from hullcap._render import render_silhouette
-from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, write_outputs
+from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff, write_outputs
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
 from hullcap._subject import (SubjectOptions, bent_frames, build_subject, fitted_surface, place_model,
@@ -532,6 +532,10 @@ class Tracker:
         resumes without tracking again what was tracked."""
         from hullcap.export import write_overlays, write_report
 
+        if frames is not None and frames < 1:
+            raise OptionsError(f"frames must be at least 1, got {frames}")
+        if smooth_hz is not None:
+            check_cutoff(smooth_hz, self.sequence.fps)  # now, not after tracking
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         self.problems.warn = show_progress
