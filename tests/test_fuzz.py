@@ -1,6 +1,6 @@
 """Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, a sequence's
-meta.json, an EasyMocap or Pose2Sim calibration, links.json, a body model's mesh.npz or
-pose.npz either load or raise an exception of the hullcap family
+meta.json, an EasyMocap or Pose2Sim calibration, links.json, a body model's mesh.npz,
+pose.npz or problems.json either load or raise an exception of the hullcap family
 (hullcap.errors.HullcapError), never another one.
 
 Inputs are random bytes, valid files with bytes changed, cut or inserted, (for the JSON
@@ -21,6 +21,7 @@ import numpy as np
 from hullcap import BodyModel
 from hullcap._cameras import Cameras, ring
 from hullcap._links import LinkModel
+from hullcap._problems import ProblemLog
 from hullcap._results import load_result
 from hullcap._sequence import Sequence
 from hullcap.errors import HullcapError
@@ -104,6 +105,30 @@ def test_cameras_json(data):
 
 
 LINKS = LinkModel.standard().to_dict()
+
+
+PROBLEMS = {"problems": [{"frame": 3, "camera": "cam1", "file": "frames/cam1/000003.jpg", "what": "unreadable"},
+                         {"frame": None, "camera": None, "file": None, "what": "meta.json says 9 frames"}]}
+
+
+@FUZZ
+@given(st.one_of(mutated(json.dumps(PROBLEMS).encode()), with_one_value_replaced(PROBLEMS)))
+@example(b'{"problems": [{"frame": [], "camera": null, "file": null, "what": "x"}]}')
+@example(b'{"problems": [{"frame": 1, "camera": 5, "file": null, "what": "x"}, '
+         b'{"frame": 2, "camera": "c", "file": null, "what": "y"}]}')
+def test_problems_json(data):
+    """A resumed run takes the problems back and sums them up at its end: what loads must
+    serve both."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "problems.json"
+        path.write_bytes(data)
+        try:
+            problems = ProblemLog.load(path)
+        except HullcapError:
+            return
+        log = ProblemLog(warn=False)
+        log.extend(problems)
+        assert log.summary()
 
 
 META = {"fps": 30, "frames": 3}

@@ -107,9 +107,25 @@ class ProblemLog:
 
     @staticmethod
     def load(path) -> list[Problem]:
-        """The problems a ``problems.json`` holds."""
+        """The problems a ``problems.json`` holds; a ResultsError names the file when an
+        entry is not one (a frame that is not a whole number, a camera or file that is not
+        a name)."""
         doc = read_document(path, ResultsError)
         try:
-            return [Problem(p["frame"], p["camera"], p["file"], str(p["what"])) for p in doc["problems"]]
+            entries = doc["problems"]
+            if not isinstance(entries, list):
+                raise TypeError(f"'problems' is {type(entries).__name__}, not a list")
+            return [_problem(p) for p in entries]
         except (KeyError, TypeError) as e:
             raise ResultsError(f"{path}: not a problems.json ({e!r})") from None
+
+
+def _problem(entry) -> Problem:
+    """A problem from its ``problems.json`` entry; TypeError or KeyError when it is none."""
+    frame, camera, file = entry["frame"], entry["camera"], entry["file"]
+    if frame is not None and (isinstance(frame, bool) or not isinstance(frame, int)):
+        raise TypeError(f"frame {frame!r} is not a whole number")
+    for name, value in (("camera", camera), ("file", file)):
+        if value is not None and not isinstance(value, str):
+            raise TypeError(f"{name} {value!r} is not a name")
+    return Problem(frame, camera, file, str(entry["what"]))
