@@ -4,8 +4,8 @@ pose.npz or problems.json either load or raise an exception of the hullcap famil
 (hullcap.errors.HullcapError), never another one.
 
 Inputs are random bytes, valid files with bytes changed, cut or inserted, (for the JSON
-formats) valid documents with one value replaced by arbitrary JSON, and (for mesh.npz) a
-valid archive with one array replaced by an arbitrary small one. The number of examples
+formats) valid documents with one value replaced by arbitrary JSON, and (for mesh.npz
+and pose.npz) a valid archive with one array replaced by an arbitrary small one. The number of examples
 is bounded so that the whole module runs in well under a minute.
 """
 
@@ -237,6 +237,28 @@ def test_mesh_npz_with_one_array_replaced(name, value):
     buf = io.BytesIO()
     np.savez(buf, **{**MESH_ARRAYS, name: value})
     model_loads_or_hullcap_error(buf.getvalue())
+
+
+with np.load(io.BytesIO(POSE)) as _z:
+    POSE_ARRAYS = {k: _z[k] for k in _z.files}
+
+
+@FUZZ
+@given(st.sampled_from(sorted(POSE_ARRAYS)), ANY_ARRAY)
+@example("fps", np.array([30.0, 30.0]))
+@example("failed", np.zeros(5, bool))
+def test_pose_npz_with_one_array_replaced(name, value):
+    """What loads is whole: every frame's pose and joints are there to read."""
+    buf = io.BytesIO()
+    np.savez(buf, **{**POSE_ARRAYS, name: value})
+    with tempfile.TemporaryDirectory() as tmp:
+        shutil.copytree(MODEL, Path(tmp) / "model")
+        (Path(tmp) / "pose.npz").write_bytes(buf.getvalue())
+        try:
+            result = load_result(tmp)
+        except HullcapError:
+            return
+        assert result.joints.shape[0] == len(result.failed) == len(result.theta)
 
 
 @FUZZ

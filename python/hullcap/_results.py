@@ -91,18 +91,30 @@ class TrackingResult:
     @classmethod
     def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
         """A result from the arrays of :meth:`arrays` (a checkpoint, or ``pose.npz``, whose
-        joints are recomputed from the model)."""
-        n = len(a["theta"])
-        status = np.asarray(a["status"], np.uint8) if "status" in a else \
-            np.where(np.asarray(a["failed"], bool), FAILED, GOOD).astype(np.uint8)
-        stats = [np.asarray(a[k], float) if k in a else np.full(n, np.nan) for k in STATS]
-        links = np.asarray(a["link_counts"], np.int64) if "link_counts" in a else \
-            np.zeros((n, len(model.link_model.names), 4), np.int64)
-        result = cls(model, float(a["fps"]), a["theta"], a["root_rotation"], a["root_translation"],
-                     np.full((n, len(model.joint_names), 3), np.nan), status, *stats,
-                     np.asarray(a["iterations"]), links)
+        joints are recomputed from the model); ResultsError naming the array that is not
+        what `model` and the number of frames make it."""
+        theta = _checked_array(a, "theta", None, "fiu")
+        if theta.ndim != 2 or theta.shape[1] != model.n_dofs:
+            raise ResultsError(f"theta has shape {theta.shape}, not (frames, {model.n_dofs}) for this model")
+        n, links = len(theta), len(model.link_model.names)
+
+        def array(key, shape, kinds, default=None):
+            return _checked_array(a, key, (n, *shape), kinds) if key in a or default is None else default
+
+        status = array("status", (), "iu") if "status" in a else np.where(array("failed", (), "b"), FAILED, GOOD)
+        if not np.isin(status, (GOOD, RECOVERED, FAILED, INTERPOLATED)).all():
+            raise ResultsError(f"status holds codes other than 0–3 ({', '.join(STATUS_NAMES)})")
+        fps = float(_checked_array(a, "fps", (), "fiu"))
+        if not 0 < fps < np.inf:
+            raise ResultsError(f"fps must be a positive number, got {fps}")
+        result = cls(model, fps, theta.astype(float), array("root_rotation", (3, 3), "fiu").astype(float),
+                     array("root_translation", (3,), "fiu").astype(float),
+                     np.full((n, len(model.joint_names), 3), np.nan), status.astype(np.uint8),
+                     *(array(k, (), "fiu", np.full(n, np.nan)).astype(float) for k in STATS),
+                     array("iterations", (), "iu").astype(np.int64),
+                     array("link_counts", (links, 4), "iu", np.zeros((n, links, 4), np.int64)).astype(np.int64))
         if "joints" in a:
-            result.joints = np.asarray(a["joints"], float)
+            result.joints = array("joints", (len(model.joint_names), 3), "fiu").astype(float)
         else:
             for f in np.flatnonzero(~result.failed):
                 result.joints[f] = model.joints(result.theta[f], result.root_rotation[f],
@@ -164,6 +176,21 @@ class TrackingResult:
         out.root_rotation[gaps] = Slerp(known, Rotation.from_matrix(self.root_rotation[known]))(gaps).as_matrix()
         out.status[gaps] = INTERPOLATED
         return out
+
+
+def _checked_array(a, key: str, shape: tuple | None, kinds: str) -> np.ndarray:
+    """``a[key]`` as an array whose dtype's kind is one of `kinds` (NumPy's letters: f
+    float, i and u integers, b bool) and of `shape` (any when ``None``); ResultsError
+    naming it otherwise."""
+    value = np.asarray(a[key])
+    if value.dtype.kind not in kinds:
+        raise ResultsError(f"{key} holds {value.dtype} values, not {'/'.join(KINDS[k] for k in kinds)}")
+    if shape is not None and value.shape != shape:
+        raise ResultsError(f"{key} has shape {value.shape}, not {shape}")
+    return value
+
+
+KINDS = {"f": "floats", "i": "integers", "u": "unsigned integers", "b": "booleans"}
 
 
 def check_cutoff(cutoff_hz: float, fps: float) -> None:
@@ -249,4 +276,7 @@ def load_result(out) -> TrackingResult:
     missing = {"root_translation", "root_rotation", "theta", "failed", "iterations", "fps"} - a.keys()
     if missing:
         raise ResultsError(f"{path}: missing {sorted(missing)}")
-    return TrackingResult.from_arrays(model, a)
+    try:
+        return TrackingResult.from_arrays(model, a)
+    except ResultsError as e:
+        raise ResultsError(f"{path}: {e}") from None
