@@ -157,6 +157,10 @@ def test_damaged_checkpoint_and_pose_say_what_to_do(clean, tmp_path, capsys):
              carried_anchor=np.zeros(5), carried_search=np.asarray("{}"))
     with pytest.raises(ResultsError, match=r"checkpoint is damaged \(an anchor of 5 numbers"):
         Tracker(seq, options=FAST).run(out, show_progress=False, frames=2)
+    np.savez(out / ".checkpoint.npz", **arrays, next_frame=1, sequence=str(clean.resolve()),
+             learnt_teach_at=np.array([np.inf]))
+    with pytest.raises(ResultsError, match=r"checkpoint is damaged \(learnt_teach_at is not a list of frames"):
+        Tracker(seq, options=FAST).run(out, show_progress=False, frames=2)
     data = (out / "pose.npz").read_bytes()
     (out / "pose.npz").write_bytes(data[: len(data) // 2])
     assert main(["export", str(out), "--format", "bvh"]) == 2

@@ -802,7 +802,10 @@ class Tracker:
     def _relearn(self, arrays: dict) -> None:
         """Takes back from a checkpoint's `arrays` (and removes from them) what
         :meth:`_learnt` put there, so that a resumed run goes on as the interrupted one would."""
-        self._teach_at = [int(f) for f in arrays.pop(LEARNT_TEACH_AT, ())]
+        teach_at = np.asarray(arrays.pop(LEARNT_TEACH_AT, np.empty(0, np.int64)))
+        if teach_at.ndim != 1 or teach_at.dtype.kind not in "iu":
+            raise ValueError(f"{LEARNT_TEACH_AT} is not a list of frames")
+        self._teach_at = [int(f) for f in teach_at]
         colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
         if colours[0] is not None and self._guides():
             if any(len(c) != len(self._guided) for c in colours):
