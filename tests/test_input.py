@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 from hullcap import Camera, Cameras
 from hullcap._cameras import ring
+from hullcap._engine import background_distortions, background_evidence
 from hullcap._hull import HullReport, visual_hull
 from hullcap._implicit import capsule_union_mesh, field_mesh
 from hullcap._mesh import check_closed, is_closed
 from hullcap._render import render_silhouette
 from hullcap._sequence import Sequence
-from hullcap._silhouette import StatisticalBackground, background_model
+from hullcap._silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, Thresholds, background_model
 from hullcap._synth import synthesize
+from hullcap.errors import ArrayError
 
 
 def distorted_camera():
@@ -211,6 +213,62 @@ def test_background_subtraction_recovers_silhouettes_and_ignores_shadows(sequenc
         background_model(seq.background(0), "magic")
     with pytest.raises(ValueError, match="does not match the background"):
         models[0].mask(np.zeros((10, 10, 3), np.uint8))
+
+
+def _reference_evidence(backgrounds, image, noise_floor=2.5, t=Thresholds()):
+    """Horprasert's evidence written out in NumPy, step by step in single precision as
+    `StatisticalBackground` computed it before the engine did."""
+    stack = np.asarray(backgrounds)
+    mean = stack.mean(0)
+    spread = stack.std(0) if len(stack) > 1 else np.zeros_like(mean)
+    inv_s = (1.0 / np.maximum(spread, noise_floor)).astype(np.float32)
+    es = (mean * inv_s).astype(np.float32)
+    es2 = np.maximum((es * es).sum(-1), 1e-6).astype(np.float32)
+
+    def distortions(img):
+        i_s = [cv2.multiply(p, inv_s[..., c], dtype=cv2.CV_32F) for c, p in enumerate(cv2.split(img))]
+        dot = i_s[0] * es[..., 0] + i_s[1] * es[..., 1] + i_s[2] * es[..., 2]
+        alpha = dot / es2
+        cd2 = i_s[0] * i_s[0] + i_s[1] * i_s[1] + i_s[2] * i_s[2] - dot * alpha
+        return alpha, np.sqrt(np.maximum(cd2, 0))
+
+    b = np.full(es2.shape, np.sqrt(2.0), np.float32)
+    if len(stack) > 1:
+        b = np.maximum(b, np.sqrt(np.mean(np.array([distortions(img)[1] for img in stack]) ** 2, 0)))
+    alpha, cd = distortions(image)
+    ev = cd * (1.0 / b).astype(np.float32) - t.chromaticity
+    ev[(alpha < t.darkest_shadow) | (alpha > t.brightest_highlight)] = FOREGROUND_EVIDENCE
+    return ev
+
+
+@pytest.mark.parametrize("images", [1, 4])
+def test_the_engines_background_test_is_the_numpy_arithmetic_to_the_bit(images, rng):
+    """The evidence of every pixel, for a model of one background image (spread = the
+    noise floor) and of several (spread measured): equal to the NumPy steps bit for bit,
+    on every kind of pixel (background, noise, shadow, highlight, another colour, black,
+    white)."""
+    scene = rng.integers(0, 256, (37, 53, 3)).astype(np.uint8)  # 1961 pixels: 8 at a time and a rest
+    backgrounds = [np.clip(scene + rng.normal(0, 3, scene.shape), 0, 255).astype(np.uint8) for _ in range(images)]
+    model = StatisticalBackground(backgrounds)
+    for frame in (scene, backgrounds[0],
+                  np.clip(scene * rng.uniform(0.2, 1.6, scene.shape[:2])[..., None], 0, 255).astype(np.uint8),
+                  rng.integers(0, 256, scene.shape).astype(np.uint8), np.zeros_like(scene), np.full_like(scene, 255)):
+        expected = _reference_evidence(backgrounds, frame)
+        evidence = model.evidence(frame)
+        assert evidence.dtype == np.float32 and evidence.shape == scene.shape[:2]
+        np.testing.assert_array_equal(evidence, expected)
+    alpha, cd = model._distortions(scene)
+    assert alpha.shape == cd.shape == scene.shape[:2] and np.all(cd >= 0)
+
+
+def test_the_engines_background_test_refuses_what_does_not_fit():
+    planes = np.ones((8, 4, 5), np.float32)
+    with pytest.raises(ArrayError, match="8 planes|got 7 planes"):
+        background_evidence(np.zeros((4, 5, 3), np.uint8), planes[:7], (3.0, 0.45, 1.35, 6.0))
+    with pytest.raises(ArrayError, match="image is 5×3 with 3 channels, the background model 5×4"):
+        background_evidence(np.zeros((3, 5, 3), np.uint8), planes, (3.0, 0.45, 1.35, 6.0))
+    with pytest.raises(ArrayError, match="image"):
+        background_distortions(np.zeros((4, 5), np.uint8), planes)
 
 
 @pytest.mark.parametrize("method", ["statistical", "mog2"])

@@ -431,6 +431,39 @@ def carve(
         1 × 1 × 1 empty occupancy at index (0, 0, 0).
     """
 
+def background_evidence(
+    image: npt.ArrayLike,
+    planes: npt.ArrayLike,
+    rule: tuple[float, float, float, float],
+    threads: int | None = None,
+) -> npt.NDArray[np.float32]:
+    """Horprasert's background test of one colour image, in one pass: per pixel, the
+    normalised chromaticity distortion less ``rule[0]`` (the chromaticity threshold), or
+    ``rule[3]`` where the brightness distortion α lies below ``rule[1]`` (the darkest
+    shadow) or above ``rule[2]`` (the brightest highlight). The arithmetic is the former
+    NumPy steps of ``StatisticalBackground`` one for one in single precision, so the
+    values are theirs to the bit.
+
+    Args:
+        image: (H, W, 3) uint8, channels in the order of the model's.
+        planes: (8, H, W) float32, the model's per-pixel constants: 1/s of each channel,
+            E/s of each channel, ‖E/s‖² (positive), 1/(the spread of CD).
+        rule: (chromaticity, darkest_shadow, brightest_highlight, foreground evidence).
+        threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
+
+    Returns:
+        (H, W) float32 evidence, > 0 for foreground.
+    """
+
+def background_distortions(
+    image: npt.ArrayLike,
+    planes: npt.ArrayLike,
+    threads: int | None = None,
+) -> tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
+    """(α, CD): the brightness and chromaticity distortions of each pixel of `image`
+    against the model of ``background_evidence``'s `planes` (whose last plane is not
+    read), each (H, W) float32, CD not normalised."""
+
 def gaussian_blur(
     values: npt.ArrayLike,
     sigma: float,

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from hullcap._engine import background_distortions, background_evidence
 from hullcap.errors import OptionsError, SequenceError
 
 __all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask", "half_covered",
@@ -92,35 +93,32 @@ class StatisticalBackground:
         spread = stack.std(0) if len(stack) > 1 else np.zeros_like(mean)
         inv_s = (1.0 / np.maximum(spread, noise_floor)).astype(np.float32)
         es = (mean * inv_s).astype(np.float32)
-        self._es2 = np.maximum((es * es).sum(-1), 1e-6).astype(np.float32)
-        # One contiguous plane per channel: sums over three channels as plane-wise adds
-        # are several times faster than NumPy's reductions over a last axis of three.
-        self._inv_s = [np.ascontiguousarray(inv_s[..., c]) for c in range(3)]
-        self._es = [np.ascontiguousarray(es[..., c]) for c in range(3)]
+        es2 = np.maximum((es * es).sum(-1), 1e-6).astype(np.float32)
+        # The engine's planes (`_engine.background_evidence`): 1/s and E/s of each channel,
+        # ‖E/s‖², and last 1/(the spread of CD), known once the distortions are.
+        self._planes = np.empty((8, *self.shape), np.float32)
+        self._planes[0:3] = np.moveaxis(inv_s, -1, 0)
+        self._planes[3:6] = np.moveaxis(es, -1, 0)
+        self._planes[6] = es2
         # Spread of α and CD under the noise alone: var(α) = 1/Σ(E/s)², and CD² is χ² with
         # two degrees of freedom (three channels, one fitted along E): RMS √2.
-        a = 1.0 / np.sqrt(self._es2)
+        a = 1.0 / np.sqrt(es2)
         b = np.full(self.shape, np.sqrt(2.0), np.float32)
         if len(stack) > 1:
             alphas, cds = zip(*(self._distortions(img) for img in stack))
             a = np.maximum(a, np.sqrt(np.mean((np.array(alphas) - 1.0) ** 2, 0)))
             b = np.maximum(b, np.sqrt(np.mean(np.array(cds) ** 2, 0)))
-        self._inv_a, self._inv_b = (1.0 / a).astype(np.float32), (1.0 / b).astype(np.float32)
+        self._inv_a = (1.0 / a).astype(np.float32)
+        self._planes[7] = 1.0 / b
 
     def _distortions(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(α, CD): the brightness and chromaticity distortions of each pixel."""
-        i_s = [cv2.multiply(plane, inv_s, dtype=cv2.CV_32F) for plane, inv_s in zip(cv2.split(image), self._inv_s)]
-        dot = i_s[0] * self._es[0] + i_s[1] * self._es[1] + i_s[2] * self._es[2]
-        alpha = dot / self._es2
-        # ‖I/s − α·E/s‖² = ‖I/s‖² − (I/s·E/s)²/‖E/s‖² at the optimal α.
-        cd2 = i_s[0] * i_s[0] + i_s[1] * i_s[1] + i_s[2] * i_s[2] - dot * alpha
-        return alpha, np.sqrt(np.maximum(cd2, 0))
+        return background_distortions(image, self._planes)
 
     def _normalised(self, image: np.ndarray):
         """(α, CD in units of its noise spread, α − 1 in units of its noise spread)."""
-        image = _image(image, self.shape)
-        alpha, cd = self._distortions(image)
-        return alpha, cd * self._inv_b, (alpha - 1.0) * self._inv_a
+        alpha, cd = self._distortions(_image(image, self.shape))
+        return alpha, cd * self._planes[7], (alpha - 1.0) * self._inv_a
 
     def classify(self, image: np.ndarray) -> np.ndarray:
         """Per-pixel class: 0 background, 1 shadow, 2 highlight, 3 foreground (uint8),
@@ -139,10 +137,8 @@ class StatisticalBackground:
         (negative: within it), and +`FOREGROUND_EVIDENCE` where the brightness alone rules
         out a shadow or highlight. :meth:`classify`'s foreground is where it is > 0."""
         t = self.thresholds
-        alpha, cd_n, _ = self._normalised(image)
-        ev = cd_n - t.chromaticity
-        ev[(alpha < t.darkest_shadow) | (alpha > t.brightest_highlight)] = FOREGROUND_EVIDENCE
-        return ev
+        rule = (t.chromaticity, t.darkest_shadow, t.brightest_highlight, FOREGROUND_EVIDENCE)
+        return background_evidence(_image(image, self.shape), self._planes, rule)
 
     def mask(self, image: np.ndarray, evidence: np.ndarray | None = None) -> np.ndarray:
         """(H, W) uint8 silhouette, 255 = subject, cleaned (see :func:`clean_mask`) and

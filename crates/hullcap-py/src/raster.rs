@@ -252,6 +252,109 @@ fn carve_views<'a>(parsed: &'a [ParsedView<'_>]) -> Vec<hullcap_raster::CarveVie
         .collect()
 }
 
+/// Horprasert's evidence that each pixel is foreground; see `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (image, planes, rule, threads=None))]
+pub(crate) fn background_evidence<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    planes: &Bound<'py, PyAny>,
+    rule: (f64, f64, f64, f64),
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let test = BackgroundTest::new(image, planes, threads)?;
+    let (chromaticity, darkest_shadow, brightest_highlight, foreground) = rule;
+    let rule = hullcap_raster::EvidenceRule {
+        chromaticity: chromaticity as f32,
+        darkest_shadow: darkest_shadow as f32,
+        brightest_highlight: brightest_highlight as f32,
+        foreground: foreground as f32,
+    };
+    let (pixels, planes, threads) = test.parts();
+    let evidence = detached(py, || {
+        hullcap_raster::background_evidence(pixels, &planes, &rule, threads)
+    })?;
+    test.image(py, evidence)
+}
+
+/// Horprasert's brightness and chromaticity distortions of each pixel; see
+/// `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (image, planes, threads=None))]
+#[allow(clippy::type_complexity)]
+pub(crate) fn background_distortions<'py>(
+    py: Python<'py>,
+    image: &Bound<'py, PyAny>,
+    planes: &Bound<'py, PyAny>,
+    threads: Option<i64>,
+) -> PyResult<(Bound<'py, PyArrayDyn<f32>>, Bound<'py, PyArrayDyn<f32>>)> {
+    let test = BackgroundTest::new(image, planes, threads)?;
+    let (pixels, planes, threads) = test.parts();
+    let (alpha, cd) = detached(py, || {
+        hullcap_raster::background_distortions(pixels, &planes, threads)
+    })?;
+    Ok((test.image(py, alpha)?, test.image(py, cd)?))
+}
+
+/// The checked arguments of the background test: an (H, W, 3) uint8 image and the
+/// model's (8, H, W) float32 planes.
+struct BackgroundTest<'py> {
+    image: PyReadonlyArrayDyn<'py, u8>,
+    planes: PyReadonlyArrayDyn<'py, f32>,
+    height: usize,
+    width: usize,
+    threads: Option<usize>,
+}
+
+impl<'py> BackgroundTest<'py> {
+    fn new(
+        image: &Bound<'py, PyAny>,
+        planes: &Bound<'py, PyAny>,
+        threads: Option<i64>,
+    ) -> PyResult<Self> {
+        let (planes, [count, height, width]) =
+            contiguous::<f32, 3>(planes, "float32", "planes", "(8, height, width)")?;
+        if count != 8 {
+            return Err(ArrayError::new_err(format!(
+                "planes must be (8, height, width): 1/s and E/s of each channel, ‖E/s‖², 1/spread of CD; got {count} planes"
+            )));
+        }
+        let (image, [h, w, channels]) =
+            contiguous::<u8, 3>(image, "uint8", "image", "(height, width, 3)")?;
+        if [h, w, channels] != [height, width, 3] {
+            return Err(ArrayError::new_err(format!(
+                "image is {w}×{h} with {channels} channels, the background model {width}×{height} with 3"
+            )));
+        }
+        Ok(BackgroundTest {
+            image,
+            planes,
+            height,
+            width,
+            threads: arrays::threads(threads)?,
+        })
+    }
+
+    /// The image's values, the engine's view of the planes, and the threads.
+    fn parts(&self) -> (&[u8], hullcap_raster::BackgroundPlanes<'_>, Option<usize>) {
+        let planes = self.planes.as_slice().unwrap_or(&[]);
+        let n = self.height * self.width;
+        let plane = |k: usize| &planes[k * n..(k + 1) * n];
+        let planes = hullcap_raster::BackgroundPlanes {
+            inv_spread: [plane(0), plane(1), plane(2)],
+            scaled_mean: [plane(3), plane(4), plane(5)],
+            scaled_norm2: plane(6),
+            inv_cd_spread: plane(7),
+        };
+        (self.image.as_slice().unwrap_or(&[]), planes, self.threads)
+    }
+
+    /// Row-major `values` as a (height, width) array.
+    fn image(&self, py: Python<'py>, values: Vec<f32>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+        PyArray1::from_vec(py, values).reshape(vec![self.height, self.width])
+    }
+}
+
 /// A 3-D Gaussian blur of a grid of small whole numbers (an occupancy); see
 /// `hullcap._engine.pyi`.
 #[pyfunction]

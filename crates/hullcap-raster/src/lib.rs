@@ -1,5 +1,6 @@
 //! Image-space and voxel kernels: z-buffered rasterisation of triangle meshes already
-//! projected to pixels, and the visual hull: carving, blur and surface.
+//! projected to pixels, the background test of silhouettes, and the visual hull: carving,
+//! blur and surface.
 //!
 //! The renderer of synthetic sequences (`hullcap._synth`) projects a mesh into each camera
 //! (with its distortion) and hands the engine pixel coordinates and camera depths; the
@@ -7,6 +8,9 @@
 //! there; shading and pictures are made from those in Python. Where only the silhouette
 //! is wanted (the tracker's predicted model, every view of every frame), [`coverage`]
 //! marks the same pixels without computing depths.
+//!
+//! [`background_evidence`] is Horprasert's statistical background test of one camera's
+//! image (`hullcap._silhouette`), its per-pixel arithmetic in one pass.
 //!
 //! Pixel (0, 0) is the centre of the top-left pixel (OpenCV's convention). A pixel is
 //! covered when its centre lies inside the triangle (edges shared by two triangles are
@@ -20,12 +24,14 @@
 //! in one parallel pass over a level's cells. [`gaussian_blur`] smooths the occupancy it
 //! returns and [`isosurface`] turns that into a closed triangle mesh.
 
+mod background;
 mod carve;
 mod isosurface;
 mod raster;
 mod smooth;
 mod whole;
 
+pub use background::{BackgroundPlanes, EvidenceRule, background_distortions, background_evidence};
 pub use carve::{Camera, CarveView, Carved, Verdict, carve, classify_cells};
 pub use isosurface::{Isosurface, isosurface};
 pub use raster::{RasterError, Rendered, coverage, rasterize};

@@ -50,6 +50,17 @@ pub enum RasterError {
         /// Height in pixels.
         height: usize,
     },
+    /// A background model's plane, or the image tested against it, does not hold one
+    /// value for each of the model's pixels (three for the image).
+    #[error("{what} holds {len} values for a background model of {pixels} pixels")]
+    BackgroundSize {
+        /// What it is.
+        what: &'static str,
+        /// Its number of values.
+        len: usize,
+        /// The model's pixels.
+        pixels: usize,
+    },
     /// A worker thread panicked.
     #[error(transparent)]
     Panicked(#[from] WorkerPanicked),
