@@ -106,6 +106,40 @@ def test_the_engine_classifies_cells_as_the_numpy_projection_says(rng):
     assert (first, occupancy.shape, occupancy.any(), tested) == ([0, 0, 0], (1, 1, 1), False, 125)
 
 
+def test_a_boxed_distance_image_carves_as_the_whole_image_it_stands_for(rng):
+    """The hull hands the carving each view's distances in the silhouette's box alone; the
+    engine reads minus the Chebyshev distance to the box beyond it. The verdicts are those
+    of that image written out whole, and an empty mask leaves every cell out."""
+    from hullcap._engine import classify_cells
+    from hullcap._hull import _boxed_signed_distance, _carving_view
+    from hullcap._silhouette import signed_distance
+
+    cams = [distorted_camera(), *ring(3, radius=2.5, width=320, height_px=240)]
+    X = rng.uniform(-1.0, 1.0, (20_000, 3)) + (0, 0, 1)
+    boxed, whole = [], []
+    for cam in cams:
+        mask = np.zeros((cam.height, cam.width), np.uint8)
+        cv2.circle(mask, (cam.width // 2 + 9, cam.height // 2 - 5), cam.height // 5, 255, -1)
+        values, x0, y0, _, _ = _boxed_signed_distance(mask)
+        h, w = values.shape
+        rows, cols = np.arange(cam.height), np.arange(cam.width)
+        below_rows = np.minimum(np.minimum(rows - y0, y0 + h - 1 - rows), 0)
+        below_cols = np.minimum(np.minimum(cols - x0, x0 + w - 1 - cols), 0)
+        image = np.minimum(below_rows[:, None], below_cols[None, :]).astype(np.float32)
+        image[y0:y0 + h, x0:x0 + w] = signed_distance(mask[y0:y0 + h, x0:x0 + w])
+        view = _carving_view(cam, mask, mask > 0)
+        boxed.append(view)
+        whole.append(view[:5] + (image, image))
+    for radius in (0.0, 0.01, 0.05, 0.2):
+        got = classify_cells(X, radius, boxed, 1, 3)
+        assert np.array_equal(got, classify_cells(X, radius, whole, 1, 3)), radius
+        assert len(set(got)) == (2 if radius == 0 else 3)
+    empty = [_carving_view(cam, np.zeros((cam.height, cam.width), np.uint8)) for cam in cams]
+    assert not classify_cells(X, 0.0, empty, 0, 1).any()
+    with pytest.raises(ArrayError, match=r"views\[0\].signed: a box of 3×2 at \(639, 0\) does not fit"):
+        classify_cells(X, 0.0, [boxed[0][:5] + ((np.zeros((2, 3), np.float32), 639, 0, 640, 480), None)], 0, 1)
+
+
 def test_cameras_json_round_trip_and_validation(tmp_path):
     cams = Cameras(list(ring(4)) + [distorted_camera()])
     cams.save(tmp_path / "cameras.json")

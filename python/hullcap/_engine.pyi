@@ -361,8 +361,12 @@ def evaluate(
     correspondences both ways), the poses spread over the threads: how a search ranks
     its candidates."""
 
-CarveView = tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float, npt.ArrayLike,
-                  npt.ArrayLike | None]
+DistanceImage = npt.ArrayLike | tuple[npt.ArrayLike, int, int, int, int]
+"""A whole (height, width) signed distance image, or ``(values, x0, y0, width, height)``:
+one given in a box (see :func:`classify_cells`)."""
+
+CarveView = tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, float, DistanceImage,
+                  DistanceImage | None]
 """One camera's view as the hull's carving reads it: ``(K, dist, R, t, focal, signed,
 prior)`` (see :func:`classify_cells`)."""
 
@@ -393,8 +397,12 @@ def classify_cells(
         views: per camera ``(K, dist, R, t, focal, signed, prior)``: the camera as
             :class:`hullcap.Camera` holds it ((3, 3) intrinsics, 5 distortion coefficients
             k1, k2, p1, p2, k3, (3, 3) rotation and (3,) translation from the world), the
-            larger focal length in pixels, the (height, width) signed distance image and
-            the prior's (same size) or ``None``.
+            larger focal length in pixels, the signed distance image and the prior's (of
+            the same image size) or ``None``. A distance image is a whole (height, width)
+            float32 array, or ``(values, x0, y0, width, height)``: the (h, w) values of a
+            box at column `x0`, row `y0` of a `width` × `height` image, beyond which the
+            image holds minus the Chebyshev distance (pixels) to the box; an empty box
+            (h or w 0) is an empty silhouette, every pixel infinitely far outside.
         tolerance: how many views may leave a cell out and be overruled.
         min_views: at the finest level, how many views must see a cell to keep it.
         threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.

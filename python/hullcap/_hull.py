@@ -42,30 +42,24 @@ class HullReport:
     mesh_seconds: float = 0.0
 
 
-_FAR = 1e9
-"""The signed distance everywhere for an empty mask (a prior that covers nothing)."""
-
-
-def _boxed_signed_distance(mask) -> np.ndarray:
-    """A mask's signed distance to its edge (pixels, positive inside), with the distance
-    transforms run only in the mask's bounding box grown by a pixel all round: exact there
-    (the mask and the ring of background around it lie inside). Beyond the box it is
-    minus the Chebyshev distance to the box, which never exceeds the distance to the mask:
-    carving then prunes a little less far from the person, and decides by the sign alone
-    at the finest level, where the sign is exact. A person fills a tenth of a frame, so
-    this is several times cheaper than the whole image's transforms."""
-    inside = (np.asarray(mask) > 0).astype(np.uint8)
-    H, W = inside.shape
-    x, y, w, h = cv2.boundingRect(inside)
+def _boxed_signed_distance(mask) -> tuple:
+    """A mask's signed distance to its edge (pixels, positive inside) as the engine's
+    carving takes it: ``(values, x0, y0, width, height)``, the distance transforms run
+    only in the mask's bounding box grown by a pixel all round, at column `x0` and row `y0`
+    of the `width` × `height` image. They are exact there (the mask and the ring of
+    background around it lie inside). Beyond the box the engine reads minus the Chebyshev
+    distance to the box, which never exceeds the distance to the mask: carving then prunes
+    a little less far from the person, and decides by the sign alone at the finest level,
+    where the sign is exact. A person fills a tenth of a frame, so this is several times
+    cheaper than the whole image's transforms; an empty mask is an empty box."""
+    m = np.asarray(mask)
+    m = m.view(np.uint8) if m.dtype == bool else m if m.dtype == np.uint8 else (m > 0).astype(np.uint8)
+    H, W = m.shape
+    x, y, w, h = cv2.boundingRect(m)
     if w == 0:
-        return np.full((H, W), -_FAR, np.float32)
+        return np.zeros((0, 0), np.float32), 0, 0, W, H
     x0, y0, x1, y1 = max(0, x - 1), max(0, y - 1), min(W, x + w + 1), min(H, y + h + 1)
-    rows, cols = np.arange(H, dtype=np.float32), np.arange(W, dtype=np.float32)
-    below_rows = np.minimum(np.minimum(rows - y0, (y1 - 1) - rows), 0)  # minus each row's distance to the box
-    below_cols = np.minimum(np.minimum(cols - x0, (x1 - 1) - cols), 0)
-    signed = np.minimum(below_rows[:, None], below_cols[None, :])
-    signed[y0:y1, x0:x1] = signed_distance(inside[y0:y1, x0:x1])
-    return signed
+    return signed_distance(m[y0:y1, x0:x1]), x0, y0, W, H
 
 
 def _carving_view(camera, mask, prior=None) -> tuple:

@@ -192,15 +192,78 @@ pub(crate) fn carve<'py>(
     ))
 }
 
-/// A view's camera, image size, focal length and images, borrowed from Python.
+/// A view's camera, image size, focal length and distance images, borrowed from Python.
 type ParsedView<'py> = (
     hullcap_raster::Camera,
     usize,
     usize,
     f64,
-    PyReadonlyArrayDyn<'py, f32>,
-    Option<PyReadonlyArrayDyn<'py, f32>>,
+    Distances<'py>,
+    Option<Distances<'py>>,
 );
+
+/// A signed distance image borrowed from Python: the values of its box, where the box
+/// lies, and the size of the image it stands for.
+struct Distances<'py> {
+    values: PyReadonlyArrayDyn<'py, f32>,
+    x0: usize,
+    y0: usize,
+    box_size: [usize; 2],
+    image_size: [usize; 2],
+}
+
+impl Distances<'_> {
+    /// The engine's view of it.
+    fn boxed(&self) -> hullcap_raster::BoxedDistance<'_> {
+        hullcap_raster::BoxedDistance {
+            x0: self.x0,
+            y0: self.y0,
+            width: self.box_size[0],
+            height: self.box_size[1],
+            values: self.values.as_slice().unwrap_or(&[]),
+        }
+    }
+}
+
+/// `obj` as a distance image: a whole (height, width) float32 image, or
+/// `(values, x0, y0, width, height)`: an (h, w) box of values at column `x0`, row `y0`
+/// of a `width × height` image. `name` names it in errors.
+fn distances<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Distances<'py>> {
+    let layout = "(height, width) or (values, x0, y0, width, height)";
+    if let Ok((values, x0, y0, width, height)) =
+        obj.extract::<(Bound<'py, PyAny>, i64, i64, i64, i64)>()
+    {
+        let (values, [h, w]) =
+            contiguous::<f32, 2>(&values, "float32", &format!("{name}[0]"), "(h, w)")?;
+        let at = |v: i64, what: &str| arrays::count(v, &format!("{name}.{what}"), 0);
+        let (x0, y0, width, height) = (
+            at(x0, "x0")?,
+            at(y0, "y0")?,
+            at(width, "width")?,
+            at(height, "height")?,
+        );
+        if x0 + w > width || y0 + h > height {
+            return Err(ArrayError::new_err(format!(
+                "{name}: a box of {w}×{h} at ({x0}, {y0}) does not fit in its image of {width}×{height}"
+            )));
+        }
+        return Ok(Distances {
+            values,
+            x0,
+            y0,
+            box_size: [w, h],
+            image_size: [width, height],
+        });
+    }
+    let (values, [h, w]) = contiguous::<f32, 2>(obj, "float32", name, layout)?;
+    Ok(Distances {
+        values,
+        x0: 0,
+        y0: 0,
+        box_size: [w, h],
+        image_size: [w, h],
+    })
+}
 
 /// The views of `classify_cells` and `carve`, checked, with errors naming the view.
 fn parse_views<'py>(views: &[Bound<'py, PyAny>]) -> PyResult<Vec<ParsedView<'py>>> {
@@ -219,17 +282,20 @@ fn parse_views<'py>(views: &[Bound<'py, PyAny>]) -> PyResult<Vec<ParsedView<'py>
             r: matrix3(&r, &format!("{name}.R"))?,
             t: numbers(&t, &format!("{name}.t"), &[])?,
         };
-        let image = |obj: &Bound<'py, PyAny>, what: &str| {
-            contiguous::<f32, 2>(obj, "float32", &format!("{name}.{what}"), "(height, width)")
-        };
-        let (signed, [h, w]) = image(&signed, "signed")?;
-        let prior = prior.map(|p| image(&p, "prior")).transpose()?;
-        if let Some((_, [ph, pw])) = prior.as_ref().filter(|(_, shape)| *shape != [h, w]) {
+        let signed = distances(&signed, &format!("{name}.signed"))?;
+        let [w, h] = signed.image_size;
+        let prior = prior
+            .map(|p| distances(&p, &format!("{name}.prior")))
+            .transpose()?;
+        if let Some([pw, ph]) = prior
+            .as_ref()
+            .map(|p| p.image_size)
+            .filter(|size| *size != [w, h])
+        {
             return Err(ArrayError::new_err(format!(
                 "{name}.prior is {pw}×{ph}, its signed image {w}×{h}"
             )));
         }
-        let prior = prior.map(|(p, _)| p);
         parsed.push((camera, w, h, focal, signed, prior));
     }
     Ok(parsed)
@@ -244,8 +310,8 @@ fn carve_views<'a>(parsed: &'a [ParsedView<'_>]) -> Vec<hullcap_raster::CarveVie
                 camera: *camera,
                 width: *w,
                 height: *h,
-                signed: signed.as_slice().unwrap_or(&[]),
-                prior: prior.as_ref().map(|p| p.as_slice().unwrap_or(&[])),
+                signed: signed.boxed(),
+                prior: prior.as_ref().map(Distances::boxed),
                 focal: *focal,
             },
         )

@@ -48,9 +48,71 @@ impl Camera {
     }
 }
 
-/// One view as the carving reads it: the camera and, row-major `width × height`, the
-/// signed distance (pixels, positive inside) to its silhouette's edge and, optionally, to
-/// the edge of its prior (where the body is expected).
+/// A signed distance image (pixels, positive inside) given in a box of the view: row-major
+/// `width × height` values from pixel (`x0`, `y0`); beyond the box, minus the Chebyshev
+/// distance (in pixels) to it, which never exceeds the distance to a silhouette inside
+/// the box. An empty box (`width` or `height` 0) is an empty silhouette: every pixel lies
+/// infinitely far outside. The whole image is the box from (0, 0) of the view's size.
+///
+/// A person fills a tenth of a frame: the distance transforms run in the silhouette's
+/// box alone, and what lies beyond it is known without an image of it.
+#[derive(Debug, Clone, Copy)]
+pub struct BoxedDistance<'a> {
+    /// The box's first column.
+    pub x0: usize,
+    /// The box's first row.
+    pub y0: usize,
+    /// The box's width in pixels.
+    pub width: usize,
+    /// The box's height in pixels.
+    pub height: usize,
+    /// Row-major, `width × height`.
+    pub values: &'a [f32],
+}
+
+impl<'a> BoxedDistance<'a> {
+    /// The whole `width × height` image `values`.
+    pub fn whole(values: &'a [f32], width: usize, height: usize) -> Self {
+        BoxedDistance {
+            x0: 0,
+            y0: 0,
+            width,
+            height,
+            values,
+        }
+    }
+
+    /// The signed distance at pixel (`u`, `v`).
+    #[inline]
+    fn at(&self, u: usize, v: usize) -> f32 {
+        if self.width == 0 || self.height == 0 {
+            return f32::NEG_INFINITY;
+        }
+        // Minus each axis's distance to the box's rows or columns (0 within them).
+        let below = |p: usize, first: usize, len: usize| {
+            if p < first {
+                (first - p) as f32
+            } else if p >= first + len {
+                (p + 1 - first - len) as f32
+            } else {
+                0.0
+            }
+        };
+        let (du, dv) = (
+            below(u, self.x0, self.width),
+            below(v, self.y0, self.height),
+        );
+        if du > 0.0 || dv > 0.0 {
+            -du.max(dv)
+        } else {
+            self.values[(v - self.y0) * self.width + (u - self.x0)]
+        }
+    }
+}
+
+/// One view as the carving reads it: the camera, its image size, and the signed distance
+/// to its silhouette's edge and, optionally, to the edge of its prior (where the body is
+/// expected).
 #[derive(Debug, Clone, Copy)]
 pub struct CarveView<'a> {
     /// The calibration.
@@ -60,9 +122,9 @@ pub struct CarveView<'a> {
     /// Image height in pixels.
     pub height: usize,
     /// Signed distance to the silhouette's edge.
-    pub signed: &'a [f32],
+    pub signed: BoxedDistance<'a>,
     /// Signed distance to the prior's edge; `None`: no prior (it covers everything).
-    pub prior: Option<&'a [f32]>,
+    pub prior: Option<BoxedDistance<'a>>,
     /// Pixels per unit of lateral size at unit depth (the larger focal length): a
     /// sphere of radius r at depth z covers a disc of radius at most `focal · r / z`.
     pub focal: f64,
@@ -102,12 +164,13 @@ pub fn classify_cells(
     threads: Option<usize>,
 ) -> Result<Vec<Verdict>, RasterError> {
     for (index, view) in views.iter().enumerate() {
-        let len = view.width * view.height;
         for image in std::iter::once(view.signed).chain(view.prior) {
-            if image.len() != len {
+            let outside =
+                image.x0 + image.width > view.width || image.y0 + image.height > view.height;
+            if image.values.len() != image.width * image.height || outside {
                 return Err(RasterError::ImageSize {
                     index,
-                    len: image.len(),
+                    len: image.values.len(),
                     width: view.width,
                     height: view.height,
                 });
@@ -244,17 +307,17 @@ fn classify(
     let (mut left_out, mut seen_by) = (0, 0);
     let (mut all_inside, mut prior_out) = (true, false);
     for view in views {
-        let Some((pixel, depth)) = pixel_of(centre, view) else {
+        let Some((u, v, depth)) = pixel_of(centre, view) else {
             all_inside = false; // unseen: decided at the finest level
             continue;
         };
         let reach = view.focal * radius / depth;
-        let signed = f64::from(view.signed[pixel]);
+        let signed = f64::from(view.signed.at(u, v));
         seen_by += 1;
         all_inside &= signed > reach;
         prior_out |= view
             .prior
-            .is_some_and(|prior| f64::from(prior[pixel]) < -reach);
+            .is_some_and(|prior| f64::from(prior.at(u, v)) < -reach);
         if signed < -reach {
             left_out += 1;
             if left_out > tolerance {
@@ -277,17 +340,17 @@ fn classify(
     }
 }
 
-/// The pixel (row-major index) nearest the point's projection, ties to even, and the
-/// point's depth; `None` behind the camera or outside the image.
+/// The pixel (column, row) nearest the point's projection, ties to even, and the point's
+/// depth; `None` behind the camera or outside the image.
 #[inline]
-fn pixel_of(point: &[f64; 3], view: &CarveView<'_>) -> Option<(usize, f64)> {
+fn pixel_of(point: &[f64; 3], view: &CarveView<'_>) -> Option<(usize, usize, f64)> {
     let (u, v, z) = view.camera.project(point);
     if z <= NEAR {
         return None;
     }
     let (u, v) = (nearest(u), nearest(v));
     let inside = u >= 0.0 && v >= 0.0 && u < view.width as f64 && v < view.height as f64;
-    inside.then(|| (v as usize * view.width + u as usize, z))
+    inside.then_some((u as usize, v as usize, z))
 }
 
 #[cfg(test)]
@@ -310,8 +373,8 @@ mod tests {
             camera,
             width: 3,
             height: 3,
-            signed: &SIGNED,
-            prior,
+            signed: BoxedDistance::whole(&SIGNED, 3, 3),
+            prior: prior.map(|p| BoxedDistance::whole(p, 3, 3)),
             focal: 10.0,
         }
     }
@@ -351,7 +414,7 @@ mod tests {
         let bad = [
             view(None),
             CarveView {
-                signed: &short,
+                signed: BoxedDistance::whole(&short, 3, 3),
                 ..view(None)
             },
         ];
@@ -362,6 +425,44 @@ mod tests {
                 len: 4,
                 ..
             })
+        ));
+    }
+
+    #[test]
+    fn a_boxed_image_reads_as_the_whole_image_it_stands_for() {
+        // A 2 × 1 box at (3, 2) of a 7 × 5 image, and that image written out.
+        let values = [1.5f32, 0.5];
+        let boxed = BoxedDistance {
+            x0: 3,
+            y0: 2,
+            width: 2,
+            height: 1,
+            values: &values,
+        };
+        for v in 0..5usize {
+            for u in 0..7usize {
+                let du = if u < 3 { 3 - u } else { u.saturating_sub(4) };
+                let dv = if v < 2 { 2 - v } else { v.saturating_sub(2) };
+                let want = if du == 0 && dv == 0 {
+                    values[u - 3]
+                } else {
+                    -(du.max(dv) as f32)
+                };
+                assert_eq!(boxed.at(u, v), want, "({u}, {v})");
+            }
+        }
+        let empty = BoxedDistance {
+            width: 0,
+            values: &[],
+            ..boxed
+        };
+        assert_eq!(empty.at(3, 2), f32::NEG_INFINITY);
+        // A box reaching beyond its view is refused.
+        let mut one = view(None);
+        one.signed = BoxedDistance { x0: 2, ..boxed };
+        assert!(matches!(
+            classify_cells(&[[0.0, 0.0, 1.0]], 0.0, &[one], 0, 1, None),
+            Err(RasterError::ImageSize { index: 0, .. })
         ));
     }
 }

@@ -32,7 +32,7 @@ mod smooth;
 mod whole;
 
 pub use background::{BackgroundPlanes, EvidenceRule, background_distortions, background_evidence};
-pub use carve::{Camera, CarveView, Carved, Verdict, carve, classify_cells};
+pub use carve::{BoxedDistance, Camera, CarveView, Carved, Verdict, carve, classify_cells};
 pub use isosurface::{Isosurface, isosurface};
 pub use raster::{RasterError, Rendered, coverage, rasterize};
 pub use smooth::gaussian_blur;
