@@ -141,6 +141,19 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert "TRC units" in capsys.readouterr().err
     assert main(["export", str(tmp_path / "nothing"), "--format", "bvh"]) == 2
     assert "no pose.npz: not the results folder" in capsys.readouterr().err
+    # Each frame keeps the bar its fit was judged by, a quality short of the fit's own.
+    from hullcap._results import load_result
+    from hullcap.export import write_report
+
+    result = load_result(tmp_path / "out")
+    assert np.isfinite(result.bar).all() and (result.bar > 0).all() and (result.bar <= result.quality).all()
+    # The pose.npz of a run from before the bar was kept loads without one; its report draws.
+    with np.load(tmp_path / "out" / "pose.npz") as z:
+        np.savez(tmp_path / "out" / "pose.npz", **{k: z[k] for k in z.files if k != "bar"})
+    older = load_result(tmp_path / "out")
+    assert np.isnan(older.bar).all() and np.array_equal(older.theta, result.theta, equal_nan=True)
+    write_report(tmp_path / "older.png", older)
+    assert cv2.imread(str(tmp_path / "older.png")) is not None
 
 
 def _accessor(gltf, blob, i):

@@ -43,10 +43,11 @@ def _synth(args) -> int:
 
 
 def _demo(args) -> int:
-    from hullcap._evaluate import accuracy
+    from hullcap._evaluate import accuracy, true_joints
     from hullcap._sequence import Sequence
     from hullcap._synth import synthesize
     from hullcap._tracking import Tracker, TrackerOptions
+    from hullcap.export import write_report
 
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(args.out) if args.out else Path(tmp)
@@ -63,6 +64,8 @@ def _demo(args) -> int:
         result = tracker.run(root / "result", resume=False)
         track_s = time.perf_counter() - t0
         acc = accuracy(result, seq_path)
+        # The report again, with the joint error per body region against the truth.
+        write_report(root / "result" / "report.png", result, true_joints(result, seq_path))
         n = len(seq)
         print("\n" + acc.table())
         print(f"\nspeed on this machine ({n} frames, {args.cameras} cameras):")

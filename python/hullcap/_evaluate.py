@@ -9,7 +9,7 @@ import numpy as np
 
 from hullcap._fitting import angles_by_name
 
-__all__ = ["Accuracy", "accuracy"]
+__all__ = ["Accuracy", "accuracy", "true_joints"]
 
 
 @dataclass(frozen=True)
@@ -33,20 +33,24 @@ class Accuracy:
         return "\n".join(rows)
 
 
+def true_joints(result, sequence_path) -> np.ndarray:
+    """(F, J, 3) the true joint positions of the frames `result` tracked, in the order of
+    its model's joints, from ``truth/`` of a synthetic sequence."""
+    with np.load(Path(sequence_path) / "truth" / "joints.npz") as z:
+        names = tuple(str(n) for n in z["names"])
+        positions = z["positions"][: len(result.failed)]
+    return positions[:, [names.index(j) for j in result.model.joint_names]]
+
+
 def accuracy(result, sequence_path) -> Accuracy:
     """Compare a :class:`~hullcap._tracking.TrackingResult` (or a run folder's
     ``pose.npz`` joints) with ``truth/`` of the sequence it tracked."""
-    truth_dir = Path(sequence_path) / "truth"
-    with np.load(truth_dir / "joints.npz") as z:
-        names = tuple(str(n) for n in z["names"])
-        true_joints = z["positions"]
-    with np.load(truth_dir / "pose.npz") as z:
+    with np.load(Path(sequence_path) / "truth" / "pose.npz") as z:
         # A DOF the truth's model lacks (a wrist of BodyModel.with_wrists) is straight there.
         true_theta = angles_by_name(z["theta"], [str(n) for n in z["dof_names"]], result.model.dof_names)
     n = len(result.failed)
     ok = ~result.failed
-    index = [names.index(j) for j in result.model.joint_names]
-    err = np.linalg.norm(result.joints[ok] - true_joints[:n][ok][:, index], axis=2) * 1000
+    err = np.linalg.norm(result.joints[ok] - true_joints(result, sequence_path)[ok], axis=2) * 1000
     angle = np.degrees(np.abs(result.theta[ok] - true_theta[:n][ok])).mean() if ok.any() else np.nan
     return Accuracy(result.model.joint_names, err.mean(0), float(err.mean()), float(err.max()),
                     float(angle), n, int(result.failed.sum()))

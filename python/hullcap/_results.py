@@ -50,6 +50,10 @@ class TrackingResult:
             fit statistics (:class:`~hullcap._fitting.FitResult`).
         iterations: (F,) ICP iterations spent on the frame, searches included.
         link_counts: (F, L, 4) each frame's per-link counts (``FitResult.link_counts``).
+        bar: (F,) the quality a fit of the frame had to reach to stand without a search:
+            the tracker's floor when it judged the frame (``TrackerOptions.quality_margin``
+            below the median quality of the recent good frames, never under
+            ``min_quality``); NaN where no fit was judged.
         seconds: seconds spent per stage of tracking the sequence (silhouettes, hull, fit), and
             on the subject's model (its frames and calibration pass included: "subject").
     """
@@ -68,6 +72,7 @@ class TrackingResult:
     mean_reverse_residual: np.ndarray
     iterations: np.ndarray
     link_counts: np.ndarray
+    bar: np.ndarray
     seconds: dict = field(default_factory=dict)
 
     @property
@@ -86,7 +91,7 @@ class TrackingResult:
         nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
         return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
                    np.full(n, FAILED, np.uint8), *(nan() for _ in STATS), np.zeros(n, np.int64),
-                   np.zeros((n, len(model.link_model.names), 4), np.int64))
+                   np.zeros((n, len(model.link_model.names), 4), np.int64), nan())
 
     @classmethod
     def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
@@ -112,7 +117,8 @@ class TrackingResult:
                      np.full((n, len(model.joint_names), 3), np.nan), status.astype(np.uint8),
                      *(array(k, (), "fiu", np.full(n, np.nan)).astype(float) for k in STATS),
                      array("iterations", (), "iu").astype(np.int64),
-                     array("link_counts", (links, 4), "iu", np.zeros((n, links, 4), np.int64)).astype(np.int64))
+                     array("link_counts", (links, 4), "iu", np.zeros((n, links, 4), np.int64)).astype(np.int64),
+                     array("bar", (), "fiu", np.full(n, np.nan)).astype(float))
         if "joints" in a:
             result.joints = array("joints", (len(model.joint_names), 3), "fiu").astype(float)
         else:
@@ -125,9 +131,10 @@ class TrackingResult:
         """The pose of `frame` (NaN when it failed)."""
         return PoseParameters(self.theta[frame], self.root_rotation[frame], self.root_translation[frame])
 
-    def record(self, frame: int, result: FitResult, status: int, iterations: int | None = None) -> None:
-        """Store a frame's fit with its status; a failed frame keeps the fit's statistics
-        (for the report) but no pose."""
+    def record(self, frame: int, result: FitResult, status: int, iterations: int | None = None,
+               bar: float = np.nan) -> None:
+        """Store a frame's fit with its status and the `bar` it was judged by (see the
+        attribute); a failed frame keeps the fit's statistics (for the report) but no pose."""
         p = result.pose
         self.theta[frame], self.root_rotation[frame], self.root_translation[frame] = \
             p.theta, p.root_rotation, p.root_translation
@@ -137,6 +144,7 @@ class TrackingResult:
             getattr(self, k)[frame] = getattr(result, k)
         self.link_counts[frame] = result.link_counts
         self.iterations[frame] = result.iterations if iterations is None else iterations
+        self.bar[frame] = bar
         if status == FAILED:
             self.fail(frame)
 
@@ -151,7 +159,7 @@ class TrackingResult:
                "theta": self.theta, "dof_names": np.array(self.model.dof_names),
                "joint_names": np.array(self.model.joint_names), "failed": self.failed,
                "status": self.status, "iterations": self.iterations, "link_counts": self.link_counts,
-               "joints": self.joints, "fps": self.fps}
+               "bar": self.bar, "joints": self.joints, "fps": self.fps}
         return out | {k: getattr(self, k) for k in STATS}
 
     def interpolated(self) -> TrackingResult:

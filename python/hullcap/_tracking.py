@@ -743,6 +743,7 @@ class Tracker:
             iterations += fitted.iterations
             if quality(fitted) >= quality(best) - options.hinge_tolerance:
                 best = fitted
+        bar = state.floor()  # what a fit of this frame must reach to stand without a search
         status = GOOD if best is not None and state.good(best) else FAILED
         passed = status == GOOD  # without a search
         if status == FAILED and options.reacquire:
@@ -766,7 +767,7 @@ class Tracker:
         if best is None:  # nothing to start from and no search
             result.fail(frame)
             return
-        result.record(frame, best, status, iterations)
+        result.record(frame, best, status, iterations, bar)
         if status != FAILED:
             state.remember_fit(best)
         self.seconds["fit"] += time.perf_counter() - t0

@@ -109,20 +109,33 @@ def _readable(sequence, frame: int, cam) -> np.ndarray:
 
 
 def write_report(path, result, truth_joints=None) -> None:
-    """``report.png``: mean residual, inlier fraction and (with `truth_joints`, F × J × 3)
-    the joint error per body region over time; failed frames marked."""
+    """``report.png``, the fit of every frame over time (failed frames shaded red,
+    recovered ones orange): how much of the hull it explains both ways (its model points
+    with a hull partner, the hull samples with a model partner, their mean, the quality)
+    against the bar the frame had to reach to stand without a search; the mean distance of
+    its pairs both ways; and, with `truth_joints` (F × J × 3), the joint error per body
+    region."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    t = np.arange(len(result.failed)) / result.fps
+    from hullcap._results import FAILED, RECOVERED
+
+    t = np.arange(len(result.status)) / result.fps
     rows = 3 if truth_joints is not None else 2
-    fig, ax = plt.subplots(rows, 1, figsize=(9, 2.4 * rows), sharex=True)
-    ax[0].plot(t, result.mean_residual * 1000, lw=1.2)
-    ax[0].set(ylabel="mean residual (mm)", title="Fit statistics per frame")
-    ax[1].plot(t, result.inlier_fraction * 100, lw=1.2, color="tab:green")
-    ax[1].set(ylabel="inliers (%)")
+    fig, ax = plt.subplots(rows, 1, figsize=(9, 2.6 * rows), sharex=True)
+    ax[0].plot(t, result.inlier_fraction * 100, lw=0.9, color="tab:green", label="model → hull (inliers)")
+    ax[0].plot(t, result.coverage * 100, lw=0.9, color="tab:blue", label="hull → model (coverage)")
+    ax[0].plot(t, result.quality * 100, lw=1.6, color="black", label="quality (their mean)")
+    if np.isfinite(result.bar).any():  # runs before the bar was kept have none
+        ax[0].plot(t, result.bar * 100, lw=1.0, ls="--", color="tab:red", label="bar without a search")
+    ax[0].set(ylabel="explained (%)")
+    ax[0].legend(fontsize=8, ncol=2, loc="lower left")
+    ax[1].plot(t, result.mean_residual * 1000, lw=1.2, color="tab:green", label="model → hull")
+    ax[1].plot(t, result.mean_reverse_residual * 1000, lw=1.2, color="tab:blue", label="hull → model")
+    ax[1].set(ylabel="mean pair distance (mm)")
+    ax[1].legend(fontsize=8, ncol=2, loc="upper left")
     if truth_joints is not None:
         names = result.model.joint_names
         err = np.linalg.norm(result.joints - truth_joints[: len(t)], axis=2) * 1000
@@ -134,10 +147,15 @@ def write_report(path, result, truth_joints=None) -> None:
             ax[2].plot(t, err[:, idx].mean(1), lw=1.2, label=label)
         ax[2].set(ylabel="joint error (mm)")
         ax[2].legend(fontsize=8, ncol=3)
+    counts = {status: int((result.status == status).sum()) for status in (FAILED, RECOVERED)}
+    fig.suptitle("How well each frame's fit explains its visual hull")
+    ax[0].set_title(f"{len(t)} frames: {counts[FAILED]} failed (shaded red), {counts[RECOVERED]} recovered by a "
+                    "search (orange)", fontsize=9)
     for a in ax:
         a.grid(alpha=0.3)
-        for f in np.flatnonzero(result.failed):
-            a.axvspan(t[f] - 0.5 / result.fps, t[f] + 0.5 / result.fps, color="red", alpha=0.2)
+        for status, colour in ((FAILED, "red"), (RECOVERED, "orange")):
+            for f in np.flatnonzero(result.status == status):
+                a.axvspan(t[f] - 0.5 / result.fps, t[f] + 0.5 / result.fps, color=colour, alpha=0.25, lw=0)
     ax[-1].set(xlabel="time (s)")
     fig.tight_layout()
     from hullcap._files import atomic_write
