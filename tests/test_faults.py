@@ -94,6 +94,26 @@ def test_one_broken_view_leaves_only_that_view_out(clean, tmp_path, capsys):
     assert len(pose["failed"]) == FRAMES and not pose["failed"].any()
 
 
+def test_a_camera_without_its_background_is_left_out_of_every_frame(clean, tmp_path):
+    """Background subtraction needs each camera's empty scene: a camera without one is left
+    out of the whole run (said once, not for every frame) and the others track; a sequence
+    without any is refused before anything is tracked, saying what is needed."""
+    from hullcap._evaluate import accuracy
+
+    seq = copy(clean, tmp_path)
+    (seq / "background" / "cam3.png").unlink()
+    result = Tracker(Sequence(seq), options=FAST).run(tmp_path / "out", show_progress=False)
+    assert not result.failed.any() and accuracy(result, seq).mean_mm < 20
+    problems = json.loads((tmp_path / "out" / "problems.json").read_text())["problems"]
+    (left_out,) = [p for p in problems if p["camera"] == "cam3"]
+    assert left_out["frame"] is None and left_out["file"].endswith("background/cam3.png")
+    assert "left out of every frame: no usable background image (missing" in left_out["what"]
+    shutil.rmtree(seq / "background")
+    with pytest.raises(SequenceError, match=r"no camera has a usable background image .* background/<camera>.png"):
+        Tracker(Sequence(seq), options=FAST).run(tmp_path / "out2", show_progress=False)
+    assert not (tmp_path / "out2" / "pose.npz").exists()
+
+
 def test_a_camera_whose_images_all_have_another_size_is_refused_at_start(clean, tmp_path):
     seq = copy(clean, tmp_path)
     for f in range(FRAMES):

@@ -591,6 +591,11 @@ def test_hull_skips_blank_views_and_refuses_bad_masks():
     assert report.skipped == {"cam3": "empty mask"}
     whole = check_closed(full.vertices, full.faces)["volume"]
     assert abs(check_closed(partial.vertices, partial.faces)["volume"] - whole) < 0.1 * whole
+    # Overruling a view without priors to bound it: a view left out already overrules one,
+    # or what that view shared with one other would stay as phantom volume.
+    with pytest.warns(UserWarning, match="cam3"):
+        tolerant = visual_hull(masks, cams, tolerance=1)
+    assert abs(check_closed(tolerant.vertices, tolerant.faces)["volume"] - whole) < 0.1 * whole
     with pytest.raises(ValueError, match="every mask is empty"):
         visual_hull([np.zeros_like(m) for m in masks], cams)
     with pytest.raises(ValueError, match="camera 'cam1': mask is"):

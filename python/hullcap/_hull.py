@@ -95,7 +95,9 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         priors: one (H, W) mask per camera of where the body is expected (the predicted
             model's silhouette, dilated by its uncertainty): a voxel kept against a view
             must lie inside every view's prior. Without priors the tolerance holds
-            everywhere, and the hull grows by what one view alone carved off.
+            everywhere, and the hull grows by what one view alone carved off; each view
+            left out (an empty mask) then counts against it, since the phantom volume a
+            missing view no longer carves grows with every view overruled as well.
 
     Returns:
         A :class:`~hullcap._mesh.Surface`: vertices (metres), faces, unit outward normals.
@@ -137,6 +139,10 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
                         f"{format_bounds((lo, hi))}, more than {MAX_VOXELS_A_SIDE} (a size in metres?)")
     t0 = time.perf_counter()
     tolerance = min(tolerance, max(0, len(views) - 4))
+    if priors is None:
+        # A view left out no longer carves what it alone shared with one other view, so
+        # without priors to bound it each view missing already overrules one.
+        tolerance = max(0, tolerance - (len(cameras) - len(views)))
     origin, occupancy = _carve(views, lo, hi, voxel_size, report, min_views, tolerance)
     report.carve_seconds = time.perf_counter() - t0
     if not occupancy.any():

@@ -56,7 +56,7 @@ from hullcap._silhouette import background_model
 from hullcap._subject import (SubjectOptions, bent_frames, build_subject, fitted_surface, place_model,
                               search_centres, with_hands)
 from hullcap._threads import ReadAhead, over_views
-from hullcap.errors import OptionsError, ResultsError, TrackingError, ViewError
+from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
 
@@ -335,6 +335,8 @@ class Tracker:
         self._guidance = self.options.guidance.for_frame_rate(sequence.fps)
         self._backgrounds = None
         self._guided = None
+        # Cameras without a usable background image, left out of every frame: name → why.
+        self._no_background: dict[str, ViewError] = {}
         self._broken: set = set()  # (frame, camera) of views already left out
         self._ahead: ReadAhead | None = None
         # How many frames' colours the guided segmenters know since they last forgot, and
@@ -372,7 +374,10 @@ class Tracker:
         masks = []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
             if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
-                self._view_left_out(frame, cam, view)
+                if cam.name in self._no_background:  # recorded once, at start-up
+                    self._broken.add((frame, cam.name))
+                else:
+                    self._view_left_out(frame, cam, view)
                 masks.append(np.zeros((cam.height, cam.width), np.uint8))
             elif view.mask is not None:
                 masks.append(view.mask)
@@ -390,6 +395,9 @@ class Tracker:
         segmenters = None if self._given_silhouettes else self._segmenters()
         inputs: list[_Input | ViewError] = []
         for i, cam in enumerate(seq.cameras):
+            if cam.name in self._no_background:
+                inputs.append(self._no_background[cam.name])
+                continue
             try:
                 if self._given_silhouettes:
                     inputs.append(_Input(mask=seq.mask(frame, cam.name)))
@@ -431,13 +439,27 @@ class Tracker:
         return reach if reach is not None else (0.6 if self._given_silhouettes else 1.0)
 
     def _segmenters(self):
-        """The background models; the guided segmenters built on them, or None."""
+        """The background models (None for a camera without a usable background image, in
+        `_no_background`); the guided segmenters built on them, or None. A SequenceError
+        when no camera has a background image."""
         if self._backgrounds is None:
             seq = self.sequence
-            self._backgrounds = [background_model(seq.background(i), self.options.background)
-                                 for i in range(len(seq.cameras))]
+            backgrounds = []
+            for cam in seq.cameras:
+                try:
+                    backgrounds.append(background_model(seq.background(cam.name), self.options.background))
+                except ViewError as e:
+                    self._no_background[cam.name] = e
+                    backgrounds.append(None)
+            if len(self._no_background) == len(seq.cameras):
+                first = next(iter(self._no_background.values()))
+                raise SequenceError(
+                    f"{seq.path}: no camera has a usable background image ({first}); background subtraction "
+                    "needs background/<camera>.png of the empty scene for each camera, or give the sequence your "
+                    "own masks in silhouettes/<camera>/ (docs/formats.md)")
+            self._backgrounds = backgrounds
             if self.options.guided and self.options.background == "statistical":
-                self._guided = [GuidedSegmenter(b, self._guidance) for b in self._backgrounds]
+                self._guided = [None if b is None else GuidedSegmenter(b, self._guidance) for b in backgrounds]
         return self._guided
 
     def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
@@ -476,6 +498,8 @@ class Tracker:
         images = self._images(frame) if images is None else images
         self._colour_frames = 1 if fresh else self._colour_frames + 1
         for seg, img, sil in zip(self._guided, images, self._silhouettes(model, pose)):
+            if seg is None:  # a camera without its background
+                continue
             if fresh:
                 seg.colours.clear()
             if img is not None:
@@ -602,6 +626,10 @@ class Tracker:
                                     f"a camera's missing frames leave its view out")
         if not self._given_silhouettes:
             seq.check_image_sizes()
+            self._segmenters()
+            for name, e in self._no_background.items():
+                self.problems.add(None, f"left out of every frame: no usable background image ({e.what})", name,
+                                  e.file)
         return max(1, min(n, max(counts.values())))
 
     def _subject(self, n: int, show_progress: bool):
@@ -796,8 +824,10 @@ class Tracker:
         segmenters' colours and the frames still to teach them from."""
         learnt = {LEARNT_TEACH_AT: np.asarray(self._teach_at, np.int64)}
         if self._guides():
+            known = next(g for g in self._guided if g is not None)  # the counts' shape
             for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
-                learnt[name] = np.stack([getattr(g.colours, part) for g in self._guided])
+                learnt[name] = np.stack([getattr((g or known).colours, part) * (g is not None)
+                                         for g in self._guided])
         return learnt
 
     def _relearn(self, arrays: dict) -> None:
@@ -812,7 +842,8 @@ class Tracker:
             if any(len(c) != len(self._guided) for c in colours):
                 raise ValueError(f"colours of {len(colours[0])} cameras, not {len(self._guided)}")
             for g, subject, background in zip(self._guided, *colours):
-                g.colours.restore(subject, background)
+                if g is not None:
+                    g.colours.restore(subject, background)
 
     def _resume(self, out: Path, n: int):
         """``(result, next frame, state)`` of the checkpoint in `out`, or ``(None, 0, None)``
