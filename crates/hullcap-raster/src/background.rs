@@ -133,9 +133,9 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// `group(p, α, CD, out)` over the run's pixels, `out` as long as the run: α and CD
-    /// of the pixels from `p` on, as many as `out[p..]` hands the group, [`LANES`] at a
-    /// time, then one by one.
+    /// Hands the run's pixels to `group` a few at a time ([`LANES`], then one by one for
+    /// the rest): `group(p, α, CD, out)` with the distortions of the run's pixels from
+    /// the `p`-th on and `out`, their part of the run's output `out` (as long as the run).
     #[inline(always)]
     fn each<T>(&self, out: &mut [T], group: impl Fn(usize, &[f32], &[f32], &mut [T])) {
         let (groups, rest) = out.as_chunks_mut::<LANES>();
