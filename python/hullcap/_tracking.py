@@ -374,10 +374,7 @@ class Tracker:
         masks = []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
             if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
-                if cam.name in self._no_background:  # recorded once, at start-up
-                    self._broken.add((frame, cam.name))
-                else:
-                    self._view_left_out(frame, cam, view)
+                self._view_left_out(frame, cam, view)
                 masks.append(np.zeros((cam.height, cam.width), np.uint8))
             elif view.mask is not None:
                 masks.append(view.mask)
@@ -424,9 +421,12 @@ class Tracker:
         return images
 
     def _view_left_out(self, frame: int, cam, error: ViewError) -> None:
+        """Record that `cam` is left out of `frame`; a camera without its background is
+        left out of every frame, and was said so once, at start-up."""
         if (frame, cam.name) not in self._broken:
             self._broken.add((frame, cam.name))
-            self.problems.add(frame, error.what, cam.name, error.file)
+            if cam.name not in self._no_background:
+                self.problems.add(frame, error.what, cam.name, error.file)
 
     @property
     def _hull_tolerance(self) -> int:
@@ -824,10 +824,10 @@ class Tracker:
         segmenters' colours and the frames still to teach them from."""
         learnt = {LEARNT_TEACH_AT: np.asarray(self._teach_at, np.int64)}
         if self._guides():
-            known = next(g for g in self._guided if g is not None)  # the counts' shape
+            known = next(g for g in self._guided if g is not None)  # a camera without its background: none
             for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
-                learnt[name] = np.stack([getattr((g or known).colours, part) * (g is not None)
-                                         for g in self._guided])
+                none = np.zeros_like(getattr(known.colours, part))
+                learnt[name] = np.stack([none if g is None else getattr(g.colours, part) for g in self._guided])
         return learnt
 
     def _relearn(self, arrays: dict) -> None:

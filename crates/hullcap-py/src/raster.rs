@@ -93,8 +93,18 @@ impl<'py> Projected<'py> {
         py: Python<'py>,
         values: Vec<T>,
     ) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
-        PyArray1::from_vec(py, values).reshape(vec![self.height, self.width])
+        image(py, values, self.height, self.width)
     }
+}
+
+/// Row-major `values` as a new (`height`, `width`) NumPy array.
+fn image<'py, T: numpy::Element>(
+    py: Python<'py>,
+    values: Vec<T>,
+    height: usize,
+    width: usize,
+) -> PyResult<Bound<'py, PyArrayDyn<T>>> {
+    PyArray1::from_vec(py, values).reshape(vec![height, width])
 }
 
 /// The carving's verdict per cell (0 out, 1 in, 2 split); see `hullcap._engine.pyi`.
@@ -417,7 +427,7 @@ impl<'py> BackgroundTest<'py> {
 
     /// Row-major `values` as a (height, width) array.
     fn image(&self, py: Python<'py>, values: Vec<f32>) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
-        PyArray1::from_vec(py, values).reshape(vec![self.height, self.width])
+        image(py, values, self.height, self.width)
     }
 }
 
