@@ -377,3 +377,37 @@ def test_views_side_by_side_keep_their_order_and_errors(monkeypatch):
     for value in ("0", "two", ""):
         monkeypatch.setenv("HULLCAP_THREADS", value)
         assert threads() >= 1
+
+
+def test_fits_side_by_side_are_the_fits_made_one_after_another(monkeypatch):
+    """Whole fits on the cores at once, each on its share of the engine's threads, give
+    the fits made in order on every core, bit for bit; the first error is raised."""
+    from hullcap._threads import over_fits
+
+    model = BodyModel.template()
+    theta = np.zeros(model.n_dofs)
+    theta[model.dof_names.index("l_elbow_flexion")] = 0.8
+    root = np.array([0.1, -0.2, model.rest_root_height])
+    posed = model.pose(theta, root_translation=root)
+    target = Surface(posed.vertices, model.faces, posed.normals)
+    starts = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [dx, 0.0, 0.0]) for dx in (0.0, 0.03, -0.05)]
+    options = FitOptions(rounds=1)
+    for cores, share in (("2", [1, 1, 1]), ("6", [2, 2, 2])):
+        monkeypatch.setenv("HULLCAP_THREADS", cores)
+        one_by_one = [fit(model, target, start, options) for start in starts]
+        given = []
+        side_by_side = over_fits(lambda s, threads: given.append(threads) or fit(model, target, s, options,
+                                                                                  threads=threads), starts)
+        assert given == share
+        for a, b in zip(one_by_one, side_by_side):
+            assert np.array_equal(a.pose.theta, b.pose.theta) and a.energy == b.energy
+            assert np.array_equal(a.pose.root_rotation, b.pose.root_rotation)
+            assert np.array_equal(a.pose.root_translation, b.pose.root_translation)
+
+    def broken(x, threads):
+        if x == 2:
+            raise ValueError("fit 2")
+        return x
+
+    with pytest.raises(ValueError, match="fit 2"):
+        over_fits(broken, range(5))

@@ -139,7 +139,7 @@ def make_target(surface: Surface, normal_weight: float | None = DEFAULT_NORMAL_W
 
 
 def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions | None = None,
-        model_points=None, prior: PosePrior | None = None) -> FitResult:
+        model_points=None, prior: PosePrior | None = None, threads: int | None = None) -> FitResult:
     """Fit `model` to `target` from `initial` by robust articulated ICP.
 
     Args:
@@ -153,6 +153,9 @@ def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions |
             ``options.model_points`` spread over the mesh).
         prior: a :class:`PosePrior` on the joint angles (default: none, the paper's
             energy).
+        threads: the engine's threads for this fit when `options` leaves them open (its
+            ``threads`` is ``None``), as :func:`hullcap._threads.over_fits` shares them
+            out; the result is the same on any number.
 
     Returns:
         A :class:`FitResult`.
@@ -160,6 +163,8 @@ def fit(model: BodyModel, target, initial: PoseParameters, options: FitOptions |
     if isinstance(target, Surface):
         target = make_target(target)
     options = FitOptions() if options is None else options
+    if threads is not None and options.threads is None:
+        options = options.replace(threads=threads)
     theta = np.asarray(initial.theta, float)
     if theta.shape != (model.n_dofs,):
         raise FitError(f"initial.theta must have {model.n_dofs} angles, got shape {theta.shape}")

@@ -29,6 +29,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
+from itertools import takewhile
 
 import numpy as np
 
@@ -36,6 +37,7 @@ from hullcap import _engine
 from hullcap._body import BodyModel
 from hullcap._engine import FitOptions
 from hullcap._fitting import FitResult, PoseParameters, fit, quality, yaw_rotation
+from hullcap._threads import over_fits
 from hullcap.errors import OptionsError
 
 __all__ = ["SearchOptions", "PoseSearch", "CANONICAL_POSES", "CHAINS", "chain_links", "chain_quality"]
@@ -260,12 +262,11 @@ class PoseSearch:
                 R = yaw_rotation(2 * np.pi * k / self.options.headings) @ last
                 candidates.append(PoseParameters(theta, R, centre - R @ offset))
         ranked = self._rank(target, candidates + ([] if tracked is None else [tracked.pose]))
+        better = takewhile(lambda pose: tracked is None or pose is not tracked.pose, ranked[: self.options.keep])
         iterations = 0
         best = tracked
-        for pose in ranked[: self.options.keep]:
-            if tracked is not None and pose is tracked.pose:
-                break
-            result = fit(self.model, target, pose, self.fit_options)
+        for result in over_fits(lambda pose, threads: fit(self.model, target, pose, self.fit_options, threads=threads),
+                                better):
             iterations += result.iterations
             if best is None or quality(result) > quality(best):
                 best = result

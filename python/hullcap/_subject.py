@@ -29,6 +29,7 @@ from hullcap._engine import FitOptions, NormalKDTree
 from hullcap._fitting import FitResult, PoseParameters, fit, make_target, quality
 from hullcap._mesh import Surface, smoothed_over_mesh
 from hullcap._shape import ShapeBasis, ShapeParameter
+from hullcap._threads import over_fits
 from hullcap.errors import FitError, ModelError, OptionsError
 
 __all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent_frames", "search_centres",
@@ -262,12 +263,12 @@ def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOp
     centre = np.median(v[:, :2], 0)
     root = (centre[0], centre[1], v[:, 2].min() + model.rest_root_height)
     quick = options.fit.replace(rounds=1, polish=False)
-    tried = []
-    for yaw in np.arange(options.headings) * 2 * np.pi / options.headings:
-        result = fit(model, target, PoseParameters.rest(model, root, yaw), quick)
-        tried.append((quality(result), result))
-    tried.sort(key=lambda t: t[0], reverse=True)
-    refined = [fit(model, target, r.pose, options.fit) for _, r in tried[: options.keep]]
+    yaws = np.arange(options.headings) * 2 * np.pi / options.headings
+    starts = [PoseParameters.rest(model, root, yaw) for yaw in yaws]
+    tried = over_fits(lambda start, threads: fit(model, target, start, quick, threads=threads), starts)
+    tried.sort(key=quality, reverse=True)
+    refined = over_fits(lambda r, threads: fit(model, target, r.pose, options.fit, threads=threads),
+                        tried[: options.keep])
     return max(refined, key=quality)
 
 
@@ -320,11 +321,10 @@ def centre_profile(model: BodyModel, joint: str, axis: str, targets, poses,
     steps = int(round(options.centre_range / options.centre_step))
     moves = options.centre_step * np.arange(-steps, steps + 1)
     refit = options.fit.replace(reverse_points=options.centre_samples)
-    per_frame = []
-    for move in moves:
-        moved = _centre_moved(model, joint, axis, move)
-        per_frame.append([quality(fit(moved, t, p, refit)) for t, p in zip(targets, poses)])
-    return moves, np.array(per_frame)
+    moved = [_centre_moved(model, joint, axis, move) for move in moves]
+    refits = [(m, t, p) for m in moved for t, p in zip(targets, poses)]
+    qualities = over_fits(lambda job, threads: quality(fit(*job, refit, threads=threads)), refits)
+    return moves, np.reshape(qualities, (len(moves), len(targets)))
 
 
 def best_move(moves, per_frame, options: SubjectOptions | None = None) -> float:

@@ -55,7 +55,7 @@ from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
 from hullcap._subject import (SubjectOptions, bent_frames, build_subject, fitted_surface, place_model,
                               search_centres, with_hands)
-from hullcap._threads import ReadAhead, over_views
+from hullcap._threads import ReadAhead, over_fits, over_views
 from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -708,7 +708,8 @@ class Tracker:
         if o.surface_reach is not None:
             measured = _spread(good, o.surface_frames)
             shown = [self.hull(f, (subject.model, window.pose(f))) for f in measured]
-            at = [fit(model, make_target(h), window.pose(f), o.fit).pose for f, h in zip(measured, shown)]
+            at = over_fits(lambda job, threads: fit(model, make_target(job[0]), job[1], o.fit, threads=threads).pose,
+                           [(h, window.pose(f)) for f, h in zip(measured, shown)])
             model, moved = fitted_surface(model, shown, at, o), True
         if not moved:
             return model, first, refined.fit
