@@ -9,8 +9,8 @@ do their work without the GIL.
   on a few threads (:func:`over_views`).
 - Whole fits side by side: independent fits (a search's candidates, the knee search's
   refits) run one per core, each on one engine thread (:func:`over_fits`). One fit
-  spread over two cores waits at its serial steps and between its parallel loops; the
-  knee search's 72 refits of d01 take 7.9 s two at a time against 10.3 s one after
+  spread over two cores waits at its serial steps and between its parallel loops: d01's
+  knee search (72 refits) takes 7.9 s with two at a time against 10.3 s with one after
   another on both cores (docs/performance.md).
 
 The results are those of the same calls made in order, one after another
@@ -48,8 +48,9 @@ def over_fits(work: Callable, items: Iterable) -> list:
     the engine's (fits): the items shared among as many threads as the engine runs on,
     each call told how many engine threads it may use (the engine's share of each). A
     fit's result does not depend on its threads (the engine's chunks are the same), so
-    the results are those of the calls made in order on every core. `work` must not
-    itself call :func:`over_fits`."""
+    the results are those of the calls made in order on every core; the first exception
+    of `work` is raised here. `work` must not itself call :func:`over_fits`: it would wait
+    for the pool it runs on."""
     items = list(items)
     cores = _engine.threads()
     threads = min(cores, len(items))
