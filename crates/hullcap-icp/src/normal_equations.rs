@@ -46,10 +46,20 @@ pub(crate) struct Correspondences {
 /// search bounded from the start by the last partner's distance skips the cells that
 /// cannot hold a nearer key (a d01 fit 0.947× the time, docs/performance.md). The pairs
 /// are the same with hints or without.
+///
+/// A model point whose posed position and normal are those of its last search, to the
+/// bit, is not searched again: its answer is the last one. A hierarchical stage turns
+/// some joints only, and every vertex those joints do not move keeps its key (the
+/// elbows' stage moves the forearms and hands alone). The answer is the one a search
+/// would give: a search from the last partner keeps it unless a key lies strictly nearer,
+/// and none did.
 #[derive(Debug, Clone, Default)]
 pub(crate) struct Hints {
     /// Per model vertex of the rig: the target point that was its nearest key, −1 for none.
     forward: Vec<i64>,
+    /// Per model vertex: the key (posed position, then normal) `forward` was found for;
+    /// NaN where it was never searched.
+    forward_keys: Vec<[f64; 6]>,
     /// Per hull sample: its nearest posed vertex (an index into the evenly spread
     /// vertices), −1 for none.
     reverse: Vec<i64>,
@@ -57,16 +67,34 @@ pub(crate) struct Hints {
     reverse_shape: (usize, usize),
 }
 
+/// A posed model point's search key: its position, then its normal.
+fn key(point: [f64; 3], normal: [f64; 3]) -> [f64; 6] {
+    [
+        point[0], point[1], point[2], normal[0], normal[1], normal[2],
+    ]
+}
+
 impl Hints {
-    /// The forward hints of `model_points` (the rig has `n_vertices`).
-    fn forward_of(&mut self, model_points: &[u32], n_vertices: usize) -> Vec<i64> {
+    /// Of `model_points` (posed at `points` with `normals`; the rig has `n_vertices`),
+    /// those whose key changed since their last search, as indices into `model_points`,
+    /// with their hints.
+    fn forward_stale(
+        &mut self,
+        model_points: &[u32],
+        points: &[[f64; 3]],
+        normals: &[[f64; 3]],
+        n_vertices: usize,
+    ) -> (Vec<usize>, Vec<i64>) {
         if self.forward.len() != n_vertices {
             self.forward = vec![-1; n_vertices];
+            self.forward_keys = vec![[f64::NAN; 6]; n_vertices];
         }
         model_points
             .iter()
-            .map(|&v| self.forward[v as usize])
-            .collect()
+            .enumerate()
+            .filter(|&(i, &v)| self.forward_keys[v as usize] != key(points[i], normals[i]))
+            .map(|(i, &v)| (i, self.forward[v as usize]))
+            .unzip()
     }
 
     /// The reverse hints of `samples` hull samples against `vertices` spread vertices.
@@ -281,16 +309,23 @@ impl Problem<'_> {
     ) -> Result<Correspondences, IcpError> {
         let (points, normals) = self.posed_points(pose, root, model_points)?;
         let n_vertices = self.rig.n_vertices();
-        let found = self.target.tree.query_hinted(
-            &points,
-            &normals,
+        let (stale, stale_hints) = hints.forward_stale(model_points, &points, &normals, n_vertices);
+        let searched = self.target.tree.query_hinted(
+            &stale.iter().map(|&i| points[i]).collect::<Vec<_>>(),
+            &stale.iter().map(|&i| normals[i]).collect::<Vec<_>>(),
             &options.gate,
-            &hints.forward_of(model_points, n_vertices),
+            &stale_hints,
             Some(self.threads),
         )?;
-        for (&v, nb) in model_points.iter().zip(&found) {
-            hints.forward[v as usize] = nb.index;
+        for (&i, nb) in stale.iter().zip(&searched) {
+            let v = model_points[i] as usize;
+            hints.forward[v] = nb.index;
+            hints.forward_keys[v] = key(points[i], normals[i]);
         }
+        let found: Vec<i64> = model_points
+            .iter()
+            .map(|&v| hints.forward[v as usize])
+            .collect();
         let mut out = self.forward_pairs(model_points, &points, &found);
         if reverse {
             let every = spread(n_vertices, options.reverse_vertices);
@@ -319,17 +354,17 @@ impl Problem<'_> {
     }
 
     /// The model→hull pairs of the model points posed at `points`, given each one's
-    /// gated nearest target key.
+    /// gated nearest target key (−1 for none).
     pub(crate) fn forward_pairs(
         &self,
         model_points: &[u32],
         points: &[[f64; 3]],
-        found: &[Neighbor],
+        found: &[i64],
     ) -> Correspondences {
         let mut out = Correspondences::default();
-        for ((nb, &vertex), p) in found.iter().zip(model_points).zip(points) {
-            if nb.index >= 0 {
-                let t = nb.index as usize;
+        for ((&index, &vertex), p) in found.iter().zip(model_points).zip(points) {
+            if index >= 0 {
+                let t = index as usize;
                 let (_, _, d) = residual(self.kind, self.target, &Vector3::from(*p), t);
                 out.pairs.push(Pair {
                     vertex,
@@ -593,6 +628,27 @@ mod tests {
             assert!(hints.forward.iter().any(|&h| h >= 0));
             assert_eq!(hints.reverse.len(), target.samples(300).len());
         }
+        // The last joint turned alone (a hierarchical stage's step): the points it does
+        // not move keep their keys and are not searched again, and the pairs are still
+        // those of a search from nothing; at the same pose again nothing is searched.
+        at.theta[2] += 0.05;
+        let pose = rig.skeleton().forward(&at.theta).unwrap();
+        let (p, n) = problem.posed_points(&pose, &at.root, &points).unwrap();
+        let stale = |hints: &Hints| {
+            let (stale, _) = hints
+                .clone()
+                .forward_stale(&points, &p, &n, rig.n_vertices());
+            stale.len()
+        };
+        let moved = stale(&hints);
+        assert!(
+            moved > 0 && moved < points.len() / 2,
+            "{moved} of {}",
+            points.len()
+        );
+        let (cold, warm) = both(&at, &options, &mut hints);
+        assert_eq!(warm, cold);
+        assert_eq!(stale(&hints), 0);
         let coarser = FitOptions {
             reverse_points: 150,
             ..options

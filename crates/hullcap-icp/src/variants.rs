@@ -152,6 +152,7 @@ fn evaluate_variant(
     for (&k, partner) in held.moving_points.iter().zip(partners) {
         found[k] = partner;
     }
+    let found: Vec<i64> = found.iter().map(|nb| nb.index).collect();
     let mut pairs = problem.forward_pairs(model_points, &points.0, &found);
 
     let mut vertices = held.vertices.clone();
