@@ -395,6 +395,7 @@ def test_fits_side_by_side_are_the_fits_made_one_after_another(monkeypatch):
     for cores, share in (("2", [1, 1, 1]), ("6", [2, 2, 2])):
         monkeypatch.setenv("HULLCAP_THREADS", cores)
         one_by_one = [fit(model, target, start, options) for start in starts]
+        assert len({r.energy for r in one_by_one}) == len(starts)  # so that the order shows
         given = []
         side_by_side = over_fits(lambda s, threads: given.append(threads) or fit(model, target, s, options,
                                                                                   threads=threads), starts)

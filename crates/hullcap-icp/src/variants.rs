@@ -53,9 +53,10 @@ pub(crate) fn moving_vertices(rig: &Rig, poses: &[Params]) -> Option<Vec<bool>> 
 
 /// What every pose shares: its unmoved model points and vertices, posed and paired once.
 struct Held {
-    /// Posed model points (all of them, at the first pose) and their nearest target keys.
+    /// Posed model points (all of them, at the first pose) and their nearest target keys
+    /// (−1 for none).
     points: PosedPoints,
-    found: Vec<Neighbor>,
+    found: Vec<i64>,
     /// The positions in `model_points` of the points that move.
     moving_points: Vec<usize>,
     /// The vertices hull samples seek their partner among, posed at the first pose.
@@ -101,11 +102,13 @@ fn hold(
 ) -> Result<Held, IcpError> {
     let pose = problem.rig.skeleton().forward(&first.theta)?;
     let points = problem.posed_points(&pose, &first.root, model_points)?;
-    let found =
-        problem
-            .target
-            .tree
-            .query(&points.0, &points.1, &options.gate, Some(problem.threads))?;
+    let found = problem
+        .target
+        .tree
+        .query(&points.0, &points.1, &options.gate, Some(problem.threads))?
+        .iter()
+        .map(|nb| nb.index)
+        .collect();
     let moving_points = positions(model_points, |v| moving[v]);
     let every = spread(problem.rig.n_vertices(), options.reverse_vertices);
     let vertices = problem.posed_points(&pose, &first.root, &every)?;
@@ -150,9 +153,8 @@ fn evaluate_variant(
     let partners = problem.target.tree.query(&p, &n, &options.gate, Some(1))?;
     let mut found = held.found.clone();
     for (&k, partner) in held.moving_points.iter().zip(partners) {
-        found[k] = partner;
+        found[k] = partner.index;
     }
-    let found: Vec<i64> = found.iter().map(|nb| nb.index).collect();
     let mut pairs = problem.forward_pairs(model_points, &points.0, &found);
 
     let mut vertices = held.vertices.clone();
