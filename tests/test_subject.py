@@ -2,6 +2,7 @@
 by optimisation."""
 
 import pickle
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -52,6 +53,28 @@ def test_a_shape_vector_moves_the_body_linearly():
     ankle = model.joint_names.index("l_ankle")
     assert np.allclose(moved.pose().joints[ankle], model.pose().joints[ankle])
 
+
+def test_the_pelvis_is_midway_between_the_hips_and_moves_no_vertex():
+    """The reported pelvis stays the hips' midpoint however the hips move, and where the
+    root's joint centre lies changes no shaped vertex (the root stretches about the body
+    frame's origin)."""
+    model = BodyModel.template()
+    basis = SubjectOptions().basis(model.link_model)
+    s = np.zeros(len(basis))
+    for name, value in (("scale:all", 0.05), ("length:pelvis", 0.1), ("width:pelvis", -0.1),
+                        ("shift:hip", 0.01), ("centre:hip:y", 0.02), ("centre:hip:z", -0.015)):
+        s[basis.names.index(name)] = value
+    for body in (model, model.shaped(basis, s)):
+        joints = dict(zip(body.joint_names, body.pose(None, yaw_rotation(0.4), (0.3, -0.2, 1.0)).joints))
+        assert np.allclose(joints["pelvis"], (joints["l_hip"] + joints["r_hip"]) / 2, atol=1e-12)
+    links = model.link_model
+    at_origin = replace(links, origins=links.origins * (np.arange(len(links.names)) > 0)[:, None],
+                        joint_points=np.where(np.array(links.joint_names)[:, None] == "pelvis", 0.0,
+                                              links.joint_points))
+    other = BodyModel(at_origin, model.vertices, model.faces, skin=model.skin)
+    assert np.allclose(other.shaped(basis, s).vertices, model.shaped(basis, s).vertices, atol=1e-12)
+    assert not np.allclose(other.shaped(basis, s).vertices, other.vertices, atol=1e-3)
+    assert not other.shaped(basis, s).link_model.origins[0].any()  # a root at the origin stays there
 
 def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     """A body 8 % taller with longer thighs and a slimmer torso, seen in a calibration

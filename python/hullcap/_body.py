@@ -127,9 +127,10 @@ class BodyModel:
         centres, link segments, sites and vertices moved by the engine's linear shape
         model. The skin weights are kept (call :meth:`reskinned` to recompute them)."""
         shape = _array(shape, "shape", np.float64, (len(basis),)).tolist()
-        engine = basis.engine(self._rig)
+        engine = basis.engine(self)
         links = self._links
         origins, vertices = engine.rest(shape)
+        origins = _root_kept_between_hips(links, origins)
 
         def move(points, owners):
             flat = np.asarray(points, float).reshape(-1, 3)
@@ -214,8 +215,9 @@ class BodyModel:
 
     @property
     def rest_root_height(self) -> float:
-        """Height of the root (pelvis joint) above the floor when the rest body stands on
-        it: the root translation that puts the rest mesh's lowest point at z = 0."""
+        """Height of the body frame's origin (the point the root turns about) above the
+        floor when the rest body stands on it: the root translation that puts the rest
+        mesh's lowest point at z = 0."""
         return float(-self._vertices[:, 2].min())
 
     def __repr__(self) -> str:
@@ -235,7 +237,7 @@ class BodyModel:
         Args:
             theta: (D,) joint angles, radians (default: the rest pose).
             root_rotation: (3, 3) world rotation of the body frame (default identity).
-            root_translation: (3,) world position of the root joint (default 0).
+            root_translation: (3,) world position of the body frame's origin (default 0).
             clamp: clamp `theta` into the joint limits first.
         """
         root = _root(root_rotation, root_translation)
@@ -314,6 +316,18 @@ def _template(b: float, k: int) -> BodyModel:
     with np.load(path) as z:
         vertices, faces = z["vertices"], z["faces"]
     return BodyModel(LinkModel.standard(), vertices, faces, b=b, k=k)
+
+
+def _root_kept_between_hips(links: LinkModel, origins: np.ndarray) -> np.ndarray:
+    """`origins` with the root's joint centre midway between the hip joints again, where
+    the link model put it there (the standard one does: docs/design.md §1). The root has
+    no joint DOF, so its centre moves no vertex; it is the pelvis point the outputs report."""
+    hips = [links.joints.index(n) for n in ("l_hip", "r_hip") if n in links.joints]
+    if len(hips) != 2 or np.abs(links.origins[0] - links.origins[hips].mean(0)).max() > 1e-9:
+        return origins
+    origins = np.array(origins, float)
+    origins[0] = origins[hips].mean(0)
+    return origins
 
 
 def _root(rotation, translation):

@@ -30,7 +30,7 @@ class PoseParameters:
     Attributes:
         theta: (D,) joint angles, radians, in ``model.dof_names`` order.
         root_rotation: (3, 3) world rotation of the body frame.
-        root_translation: (3,) world position of the root joint (pelvis), metres.
+        root_translation: (3,) world position of the body frame's origin, metres.
     """
 
     theta: np.ndarray

@@ -68,10 +68,23 @@ class ShapeBasis:
     def sigma(self) -> np.ndarray:
         return np.array([p.sigma for p in self.parameters], float)
 
-    def engine(self, rig) -> _engine.Shape:
-        """The engine's shape of a rig (the base body at s = 0)."""
-        return _engine.Shape(rig, *([[(j, np.asarray(m)) for j, m in getattr(p, kind)] for p in self.parameters]
-                                    for kind in ("stretches", "shifts", "centres")))
+    def engine(self, model) -> _engine.Shape:
+        """The engine's shape of a :class:`~hullcap.BodyModel` (the base body at s = 0).
+
+        A stretch of the root is about the body frame's origin, the point the root turns
+        about, not about the root's joint centre, which the link model may put elsewhere
+        (the standard one puts it midway between the hips): the engine stretches each link
+        about its joint centre, so the root is shifted by what that leaves out."""
+        root = model.link_model.origins[0]
+
+        def shifts(p):
+            return [(j, np.asarray(c)) for j, c in p.shifts] + \
+                [(0, np.asarray(m) @ root) for j, m in p.stretches if j == 0 and root.any()]
+
+        return _engine.Shape(model._rig,
+                             [[(j, np.asarray(m)) for j, m in p.stretches] for p in self.parameters],
+                             [shifts(p) for p in self.parameters],
+                             [[(j, np.asarray(e)) for j, e in p.centres] for p in self.parameters])
 
     @classmethod
     def scales(cls, links, lengths: dict | None = None, girths: dict | None = None):

@@ -235,7 +235,7 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     if poses is None:
         start = place_model(fitted_body.shaped(basis, shape0), hulls[0], targets[0], options)
         poses = [start.pose] * len(hulls)
-    engine = basis.engine(fitted_body._rig)
+    engine = basis.engine(fitted_body)
     rotations = [np.asarray(p.root_rotation, float) for p in poses]
     translations = [np.asarray(p.root_translation, float) for p in poses]
     found, fitted, _, _ = _engine.fit_shape(

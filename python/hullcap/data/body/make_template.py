@@ -1,11 +1,12 @@
 """Regenerate hullcap's template body, ``data/body/template.npz``.
 
 A standard adult (1.75 m) in the calibration T-pose, in the body frame of ``links.json``
-(metres; x = the subject's left, y = back, z = up; origin at the pelvis joint, 0.97 m above
-the floor). Its proportions follow the segment lengths of Drillis and Contini (1966) as
-fractions of the body height H, tabulated by Winter, "Biomechanics and Motor Control of
-Human Movement" (4th ed., 2009, Fig. 4.1): hip joints at 0.530 H, knees at 0.285 H,
-ankles at 0.039 H, hand 0.108 H and foot 0.152 H long (``links.json`` places the joints).
+(metres; x = the subject's left, y = back, z = up; origin 0.97 m above the floor on the
+body's axis, 3.9 cm above the hip joints). Its proportions follow the segment lengths of
+Drillis and Contini (1966) as fractions of the body height H, tabulated by Winter,
+"Biomechanics and Motor Control of Human Movement" (4th ed., 2009, Fig. 4.1): hip joints
+at 0.530 H, knees at 0.285 H, ankles at 0.039 H, hand 0.108 H and foot 0.152 H long
+(``links.json`` places the joints).
 The surface is a smooth union of tapered capsules and ellipsoids laid around the link
 model, meshed by marching cubes on a 16 mm grid: closed, manifold, outward oriented, one
 piece. Run from the repository root:
