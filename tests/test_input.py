@@ -109,7 +109,9 @@ def test_the_engine_classifies_cells_as_the_numpy_projection_says(rng):
 def test_a_boxed_distance_image_carves_as_the_whole_image_it_stands_for(rng):
     """The hull hands the carving each view's distances in the silhouette's box alone; the
     engine reads minus the Chebyshev distance to the box beyond it. The verdicts are those
-    of that image written out whole, and an empty mask leaves every cell out."""
+    of that image written out whole, and an empty mask leaves every cell out. A prior's
+    distances come without their inside (0 there): the verdicts are those of its whole
+    signed distance."""
     from hullcap._engine import classify_cells
     from hullcap._hull import _boxed_signed_distance, _carving_view
     from hullcap._silhouette import signed_distance

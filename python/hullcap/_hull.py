@@ -25,7 +25,7 @@ import numpy as np
 from hullcap._cameras import Cameras
 from hullcap._engine import carve, gaussian_blur, isosurface
 from hullcap._mesh import Surface
-from hullcap._silhouette import signed_distance
+from hullcap._silhouette import distance_outside, signed_distance
 from hullcap._threads import over_views
 from hullcap.errors import CalibrationError, HullError
 
@@ -42,7 +42,7 @@ class HullReport:
     mesh_seconds: float = 0.0
 
 
-def _boxed_signed_distance(mask) -> tuple:
+def _boxed_signed_distance(mask, outside_only: bool = False) -> tuple:
     """A mask's signed distance to its edge (pixels, positive inside) as the engine's
     carving takes it: ``(values, x0, y0, width, height)``, the distance transforms run
     only in the mask's bounding box grown by a pixel all round, at column `x0` and row `y0`
@@ -51,7 +51,9 @@ def _boxed_signed_distance(mask) -> tuple:
     distance to the box, which never exceeds the distance to the mask: carving then prunes
     a little less far from the person, and decides by the sign alone at the finest level,
     where the sign is exact. A person fills a tenth of a frame, so this is several times
-    cheaper than the whole image's transforms; an empty mask is an empty box."""
+    cheaper than the whole image's transforms; an empty mask is an empty box. With
+    `outside_only` the values inside the mask are 0, not the distance to its edge: all a
+    prior is asked is whether a point lies outside it by more than a cell's reach."""
     m = np.asarray(mask)
     m = m.view(np.uint8) if m.dtype == bool else m if m.dtype == np.uint8 else (m > 0).astype(np.uint8)
     H, W = m.shape
@@ -59,7 +61,8 @@ def _boxed_signed_distance(mask) -> tuple:
     if w == 0:
         return np.zeros((0, 0), np.float32), 0, 0, W, H
     x0, y0, x1, y1 = max(0, x - 1), max(0, y - 1), min(W, x + w + 1), min(H, y + h + 1)
-    return signed_distance(m[y0:y1, x0:x1]), x0, y0, W, H
+    box = m[y0:y1, x0:x1]
+    return np.negative(distance_outside(box)) if outside_only else signed_distance(box), x0, y0, W, H
 
 
 def _carving_view(camera, mask, prior=None) -> tuple:
@@ -67,7 +70,7 @@ def _carving_view(camera, mask, prior=None) -> tuple:
     camera, its larger focal length, and the signed distance to the silhouette's edge
     and to the prior's (None without one)."""
     focal = float(max(camera.K[0, 0], camera.K[1, 1]))
-    prior = None if prior is None else _boxed_signed_distance(prior)
+    prior = None if prior is None else _boxed_signed_distance(prior, outside_only=True)
     return camera.K, camera.dist, camera.R, camera.t, focal, _boxed_signed_distance(mask), prior
 
 

@@ -29,7 +29,8 @@ from hullcap._engine import background_distortions, background_evidence
 from hullcap.errors import OptionsError, SequenceError
 
 __all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask", "half_covered",
-           "signed_distance"]
+           "signed_distance",
+           "distance_outside"]
 
 
 @dataclass(frozen=True)
@@ -261,8 +262,17 @@ def signed_distance(mask: np.ndarray) -> np.ndarray:
     positive inside `mask` (bool, or > 0 inside)."""
     inside = (np.asarray(mask) > 0).astype(np.uint8)
     d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
-    d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
-    return np.subtract(d_in, d_out, dtype=np.float32)  # each is 0 where the other is not
+    return np.subtract(d_in, _distance_to(inside), dtype=np.float32)  # each is 0 where the other is not
+
+
+def distance_outside(mask: np.ndarray) -> np.ndarray:
+    """(H, W) float32 pixels from each pixel outside `mask` to the nearest pixel inside it,
+    0 inside: minus :func:`signed_distance` outside the mask."""
+    return _distance_to((np.asarray(mask) > 0).astype(np.uint8))
+
+
+def _distance_to(inside: np.ndarray) -> np.ndarray:
+    return cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
 
 
 def _stack(backgrounds) -> np.ndarray:

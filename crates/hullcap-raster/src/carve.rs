@@ -123,7 +123,9 @@ pub struct CarveView<'a> {
     pub height: usize,
     /// Signed distance to the silhouette's edge.
     pub signed: BoxedDistance<'a>,
-    /// Signed distance to the prior's edge; `None`: no prior (it covers everything).
+    /// Signed distance to the prior's edge; `None`: no prior (it covers everything). Only
+    /// where it is negative (outside the prior) is it read as a distance: inside, any value
+    /// of at least 0 gives the same verdicts.
     pub prior: Option<BoxedDistance<'a>>,
     /// Pixels per unit of lateral size at unit depth (the larger focal length): a
     /// sphere of radius r at depth z covers a disc of radius at most `focal · r / z`.
