@@ -1,11 +1,12 @@
 """Body proportions as parameters (docs/design.md, "The subject's model").
 
 A shape vector s moves the rest body linearly (the engine's ``Shape``): each parameter
-stretches some links about their joint centres and/or shifts some joints, and the mesh
-follows by its skin weights. s = 0 is the body itself. The subject's model is the
-template at the shape vector that minimises the fit energy over the calibration frames
-(:func:`hullcap.build_subject`); :meth:`hullcap.BodyModel.scaled` is the special case of
-one length and one girth scale per link.
+stretches some links about their joint centres (the root about the body frame's origin)
+and/or shifts some joints, and the mesh follows by its skin weights. s = 0 is the body
+itself. The subject's model is the template at the shape vector that minimises the fit
+energy over the calibration frames (:func:`hullcap.build_subject`);
+:meth:`hullcap.BodyModel.scaled` is the special case of one length and one girth scale
+per link.
 """
 
 from __future__ import annotations

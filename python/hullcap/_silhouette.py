@@ -29,8 +29,7 @@ from hullcap._engine import background_distortions, background_evidence
 from hullcap.errors import OptionsError, SequenceError
 
 __all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask", "half_covered",
-           "signed_distance",
-           "distance_outside"]
+           "signed_distance", "distance_outside"]
 
 
 @dataclass(frozen=True)

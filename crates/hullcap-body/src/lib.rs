@@ -11,8 +11,8 @@
 //!   the rest body linear in them, and the posed vertices' derivatives with respect to them.
 //!
 //! Frames: the body frame has x = the subject's left, y = back (the subject faces −y),
-//! z = up, origin at the point the root turns about. At rest every link frame is the body frame moved to
-//! its joint centre (no rest rotations), so T_j(0) is a pure translation.
+//! z = up, origin at the point the root turns about. At rest every link frame is the body
+//! frame moved to its joint centre (no rest rotations), so T_j(0) is a pure translation.
 
 mod bvh;
 mod error;
