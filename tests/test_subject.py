@@ -75,6 +75,8 @@ def test_the_pelvis_is_midway_between_the_hips_and_moves_no_vertex():
     assert np.allclose(other.shaped(basis, s).vertices, model.shaped(basis, s).vertices, atol=1e-12)
     assert not np.allclose(other.shaped(basis, s).vertices, other.vertices, atol=1e-3)
     assert not other.shaped(basis, s).link_model.origins[0].any()  # a root at the origin stays there
+    with pytest.raises(TypeError, match="takes a BodyModel, got Rig"):
+        basis.engine(model._rig)
 
 def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     """A body 8 % taller with longer thighs and a slimmer torso, seen in a calibration

@@ -76,6 +76,8 @@ class ShapeBasis:
         about, not about the root's joint centre, which the link model may put elsewhere
         (the standard one puts it midway between the hips): the engine stretches each link
         about its joint centre, so the root is shifted by what that leaves out."""
+        if not hasattr(model, "link_model"):
+            raise TypeError(f"ShapeBasis.engine takes a BodyModel, got {type(model).__name__}")
         root = model.link_model.origins[0]
 
         def shifts(p):
