@@ -261,17 +261,13 @@ def signed_distance(mask: np.ndarray) -> np.ndarray:
     positive inside `mask` (bool, or > 0 inside)."""
     inside = (np.asarray(mask) > 0).astype(np.uint8)
     d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
-    return np.subtract(d_in, _distance_to(inside), dtype=np.float32)  # each is 0 where the other is not
+    return np.subtract(d_in, distance_outside(inside), dtype=np.float32)  # each is 0 where the other is not
 
 
 def distance_outside(mask: np.ndarray) -> np.ndarray:
-    """(H, W) float32 pixels from each pixel outside `mask` to the nearest pixel inside it,
-    0 inside: minus :func:`signed_distance` outside the mask."""
-    return _distance_to((np.asarray(mask) > 0).astype(np.uint8))
-
-
-def _distance_to(inside: np.ndarray) -> np.ndarray:
-    return cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
+    """(H, W) float32 pixels from each pixel outside `mask` (bool, or > 0 inside) to the
+    nearest pixel inside it, 0 inside: minus :func:`signed_distance` outside the mask."""
+    return cv2.distanceTransform((np.asarray(mask) <= 0).astype(np.uint8), cv2.DIST_L2, 5)
 
 
 def _stack(backgrounds) -> np.ndarray:
