@@ -779,6 +779,45 @@ def test_a_wall_the_colour_of_the_subjects_shirt_stays_background(scene_share, r
             GuidedOptions(scene_share=share)
 
 
+def test_a_guided_mask_is_unsure_where_it_missed_camouflage_and_sure_of_the_room_beside_it(rng):
+    """What the tolerant hull may overrule: the trousers the floor's colour, which the mask
+    mostly misses, and not the floor a few pixels beyond the predicted outline, where a
+    view's tangent carves the phantom volume around the body."""
+    from hullcap._guided import GuidedOptions, GuidedSegmenter
+    from hullcap._silhouette import signed_distance
+
+    h, w = 120, 160
+    scene = np.full((h, w, 3), 120.0)
+
+    def noisy(img):
+        return np.clip(img + rng.normal(0, 1.5, img.shape), 0, 255).astype(np.uint8)
+
+    background = StatisticalBackground(noisy(scene))
+    body = np.zeros((h, w), bool)
+    body[25:105, 60:90] = True
+    person = scene.copy()
+    person[25:65, 60:90] = (140, 60, 30)  # a blue shirt
+    person[65:105, 60:90] = 121  # trousers the floor's grey
+    image = noisy(person)
+    outside = signed_distance(body)
+    masks = []
+    for sure in (2.0, 4.0):
+        segmenter = GuidedSegmenter(background, GuidedOptions(sure_background=sure))
+        segmenter.learn(image, body)
+        mask, unsure = segmenter.segment(image, body)
+        masks.append(mask)
+        assert (mask[65:105, 60:90] > 0).mean() < 0.5  # the trousers are mostly missed
+        assert unsure[25:105, 60:90].all()  # but nowhere for sure
+        if sure == 2.0:
+            assert not unsure[outside < -8].any()  # the room beyond the band: sure
+            narrow = unsure
+    assert np.array_equal(masks[0], masks[1])  # the mask itself does not depend on it
+    assert (narrow <= unsure).all() and unsure.sum() > narrow.sum()
+    assert GuidedSegmenter(background).segment(image, None)[1] is None  # no prior: the test alone
+    with pytest.raises(ValueError, match="sure_background"):
+        GuidedOptions(sure_background=-1.0)
+
+
 @pytest.mark.parametrize("bins", [1, 7, 16, 41, 256])
 def test_the_colour_models_log_ratio_is_the_histograms_of_each_pixels_colour(bins, rng):
     """Each pixel's colour falls in bin (level · bins) // 256 of each channel; its log-ratio

@@ -95,9 +95,10 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
             others: a part of the body that one silhouette misses (clothes the colour of
             the wall behind) would otherwise be cut from the hull as a tunnel through it.
             It applies only where at least four views agree.
-        priors: one (H, W) mask per camera of where the body is expected (the predicted
-            model's silhouette, dilated by its uncertainty): a voxel kept against a view
-            must lie inside every view's prior. Without priors the tolerance holds
+        priors: one (H, W) mask per camera of where the body is expected and the view
+            may have missed it (the tracker's: the predicted model's silhouette, dilated
+            by its uncertainty, less what the view's guided mask saw as background for
+            sure): a voxel kept against a view must lie inside every view's prior. Without priors the tolerance holds
             everywhere, and the hull grows by what one view alone carved off; each view
             left out (an empty mask) then counts against it, since the phantom volume a
             missing view no longer carves grows with every view overruled as well.

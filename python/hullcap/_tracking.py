@@ -93,7 +93,9 @@ class TrackerOptions:
             sequence's frame rate, :meth:`GuidedOptions.for_frame_rate`).
         hull_tolerance: views that may leave a voxel out and be overruled by the others
             (:func:`hullcap.visual_hull`): within the predicted model's silhouettes,
-            dilated by the guided silhouettes' outer band, while tracking; anywhere in the
+            dilated by the guided silhouettes' outer band, while tracking, and only where
+            each view's guided mask was not sure of the background
+            (``GuidedOptions.sure_background``); anywhere in the
             first frame, which has no prediction yet (its hull is then a little larger
             where one view alone carved).
             ``None``: 1 for silhouettes by background subtraction, which may miss a part in
@@ -361,17 +363,23 @@ class Tracker:
         """The silhouettes of `frame`: given, or by background subtraction, guided by the
         predicted model's silhouettes `priors` (one bool mask per view) when the options
         say so."""
+        return self._segment(frame, priors)[0]
+
+    def _segment(self, frame: int, priors=None) -> tuple[list[np.ndarray], list[np.ndarray | None]]:
+        """``(masks, unsure)``: :meth:`masks`, and for each view where its guided mask was
+        not sure of the background (:meth:`GuidedSegmenter.segment`; None for a view not
+        guided)."""
         t0 = time.perf_counter()
         inputs = self._ahead.take(frame) if self._ahead is not None else self._inputs(frame)
 
-        def segmented(i: int) -> np.ndarray:
+        def segmented(i: int):
             view = inputs[i]
-            return self._guided[i].mask(view.image, None if priors is None else priors[i], view.evidence)
+            return self._guided[i].segment(view.image, None if priors is None else priors[i], view.evidence)
 
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
-        segmented_masks = dict(zip(to_segment, over_views(segmented, to_segment)))
-        masks = []
+        segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
+        masks, unsure = [], []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
             if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
                 self._view_left_out(frame, cam, view)
@@ -379,9 +387,10 @@ class Tracker:
             elif view.mask is not None:
                 masks.append(view.mask)
             else:
-                masks.append(segmented_masks[i])
+                masks.append(segmented_views[i][0])
+            unsure.append(segmented_views[i][1] if i in segmented_views else None)
         self.seconds["silhouettes"] += time.perf_counter() - t0
-        return masks
+        return masks, unsure
 
     def _inputs(self, frame: int) -> list[_Input | ViewError]:
         """What each camera gives for `frame` before any prediction: the given mask, the
@@ -520,11 +529,11 @@ class Tracker:
         t0 = time.perf_counter()
         silhouettes = self._silhouettes(*prior) if used else None
         self.seconds["silhouettes"] += time.perf_counter() - t0  # the prediction, drawn for the masks
-        masks = self.masks(frame, silhouettes)
+        masks, unsure = self._segment(frame, silhouettes)
         t0 = time.perf_counter()
         report = HullReport()
         priors = None if silhouettes is None or tolerance == 0 else \
-            over_views(lambda s: dilated(s, self._guidance.outer), silhouettes)
+            over_views(lambda view: _overrulable(*view, self._guidance.outer), zip(silhouettes, unsure))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
@@ -879,6 +888,14 @@ class _Input:
     mask: np.ndarray | None = None
     image: np.ndarray | None = None
     evidence: np.ndarray | None = None
+
+
+def _overrulable(silhouette: np.ndarray, unsure: np.ndarray | None, band: float) -> np.ndarray:
+    """Where the tolerant hull may overrule a view: its predicted `silhouette` grown by
+    `band` of its height (the prediction's error), less what the view's guided mask
+    called background for sure (`unsure` False; None for a view not guided)."""
+    grown = dilated(silhouette, band)
+    return grown if unsure is None else grown & unsure
 
 
 def _spread(frames: list[int], n: int) -> list[int]:
