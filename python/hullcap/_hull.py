@@ -98,10 +98,11 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         priors: one (H, W) mask per camera of where the body is expected and the view
             may have missed it (the tracker's: the predicted model's silhouette, dilated
             by its uncertainty, less what the view's guided mask saw as background for
-            sure): a voxel kept against a view must lie inside every view's prior. Without priors the tolerance holds
-            everywhere, and the hull grows by what one view alone carved off; each view
-            left out (an empty mask) then counts against it, since the phantom volume a
-            missing view no longer carves grows with every view overruled as well.
+            sure): a voxel kept against a view must lie inside every view's prior.
+            Without priors the tolerance holds everywhere, and the hull grows by what
+            one view alone carved off; each view left out (an empty mask) then counts
+            against it, since the phantom volume a missing view no longer carves grows
+            with every view overruled as well.
 
     Returns:
         A :class:`~hullcap._mesh.Surface`: vertices (metres), faces, unit outward normals.
