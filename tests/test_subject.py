@@ -78,6 +78,7 @@ def test_the_pelvis_is_midway_between_the_hips_and_moves_no_vertex():
     with pytest.raises(TypeError, match="takes a BodyModel, got Rig"):
         basis.engine(model._rig)
 
+
 def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     """A body 8 % taller with longer thighs and a slimmer torso, seen in a calibration
     pose and two poses of motion: the fitted model's limb lengths match within 1.5 %."""
