@@ -46,7 +46,7 @@ class SurfaceTracker(Tracker):
         super().__init__(sequence, **kwargs)
         self._surfaces = devset.TrueSurfaces(sequence.path)
 
-    def _carve(self, frame: int, prior=None):
+    def _carve(self, frame: int, prior=None, doubt=None):
         return self._surfaces(frame), self.masks(frame, None)
 
 

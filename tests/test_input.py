@@ -581,6 +581,48 @@ def test_hull_of_a_box_contains_it_and_hugs_its_faces():
     assert np.mean(np.einsum("ij,ij->i", hull.normals, outward) > 0.3) > 0.95
 
 
+def test_a_hull_cut_by_views_that_were_unsure_is_doubtful_there_alone():
+    """Three views miss a ball's top, unsure of it (clothes the colour of the room): a
+    tolerance of one view cannot keep it, and the cut's flat face is doubtful; the rest
+    of the ball, which every view cut where it saw the room for sure, is not. One of the
+    three views sure of its cut, or asking for more views than cut it, vouches for it."""
+    from hullcap._hull import doubtful_vertices
+    from hullcap._tracking import TrackerOptions
+
+    cams = ring(8, radius=3.0, width=320, height_px=240)
+    centre, radius = np.array([0.0, 0.0, 1.0]), 0.3
+    v, f = capsule_union_mesh([(centre, centre, radius)], 0.005)
+    masks = _masks(cams, v, f)
+    top = centre[2] + 0.15
+    unsure = [np.zeros(m.shape, bool) for m in masks]
+    for i in (0, 2, 4, 6):  # all round the ring, at one height: their cuts meet in a flat top
+        row = int(cams[i].project(np.array([[0.0, 0.0, top]]))[0][0, 1])
+        masks[i][:row] = 0
+        unsure[i][:row] = True
+    hull = visual_hull(masks, cams, voxel_size=0.01, tolerance=1)
+    z = hull.vertices[:, 2]
+    assert z.max() < top + 0.05 < centre[2] + radius  # cut: one view's tolerance cannot keep it
+    doubt = doubtful_vertices(hull, masks, unsure, cams)
+    flat = (z > top - 0.05) & (hull.normals[:, 2] > 0.9)
+    assert flat.sum() > 1000 and doubt[flat].mean() > 0.8
+    assert not doubt[z < top - 0.05].any()  # the ball's own surface stays
+    assert not doubtful_vertices(hull, masks, unsure, cams, views=5).any()
+    sure_of_it = [u if i else np.zeros_like(u) for i, u in enumerate(unsure)]  # view 0 saw the room
+    vouched = doubtful_vertices(hull, masks, sure_of_it, cams)
+    assert (vouched <= doubt).all() and vouched[flat].mean() < 0.5 * doubt[flat].mean()
+    assert not doubtful_vertices(hull, masks, [None] * len(cams), cams).any()  # given masks: sure everywhere
+    kept = hull.subset(~doubt)
+    assert len(kept.vertices) == (~doubt).sum() and len(kept.faces) > 0.8 * len(hull.faces)
+    np.testing.assert_array_equal(kept.vertices[kept.faces], hull.vertices[hull.faces[(~doubt)[hull.faces].all(1)]])
+    with pytest.raises(ValueError, match="unsure"):
+        doubtful_vertices(hull, masks, unsure[:-1], cams)
+    with pytest.raises(ArrayError, match="keep"):
+        hull.subset(doubt[:-1])
+    for bad in ({"hull_doubt": 0.0}, {"hull_doubt_views": 0}):
+        with pytest.raises(ValueError, match="hull_doubt"):
+            TrackerOptions(**bad)
+
+
 def test_hull_skips_blank_views_and_refuses_bad_masks():
     cams = ring(8, radius=3.0)
     v, f = capsule_union_mesh([((0, 0, 1), (0, 0, 1.2), 0.25)], 0.01)

@@ -29,7 +29,8 @@ from hullcap._silhouette import distance_outside, signed_distance
 from hullcap._threads import over_views
 from hullcap.errors import CalibrationError, HullError
 
-__all__ = ["visual_hull", "capture_volume", "axes_meeting_point", "check_bounds", "format_bounds", "HullReport"]
+__all__ = ["visual_hull", "doubtful_vertices", "capture_volume", "axes_meeting_point", "check_bounds", "format_bounds",
+           "HullReport"]
 
 
 @dataclass
@@ -157,6 +158,42 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     surface = _mesh(occupancy, origin, voxel_size, smooth)
     report.mesh_seconds = time.perf_counter() - t0
     return surface
+
+
+def doubtful_vertices(surface: Surface, masks, unsure, cameras: Cameras, reach: float = 0.02,
+                      views: int = 3) -> np.ndarray:
+    """(V,) bool: the vertices of a hull whose place the silhouettes do not vouch for. The
+    point `reach` metres outside a vertex along its normal is what cut the hull there;
+    the vertex is doubtful when at least `views` views leave that point out and none of
+    them was sure it saw the background there (`unsure`: one (H, W) bool image per
+    camera, true where its mask's verdict of background was not sure, or None for a view
+    sure everywhere). Clothes the colour of the floor that several views miss together
+    carve the hull inside the body where no tolerance can keep it (design.md §7); a view
+    that sees the room beside a limb is sure of it, and the limb's surface stays. Views
+    with an empty mask (left out of the hull) and points outside a view's image count
+    for nothing."""
+    if not len(masks) == len(unsure) == len(cameras):
+        raise HullError(f"{len(masks)} masks, {len(unsure)} unsure images for {len(cameras)} cameras")
+    outside = np.asarray(surface.vertices) + reach * np.asarray(surface.normals)
+    used = [(cam, np.asarray(mask), doubt) for cam, mask, doubt in zip(cameras, masks, unsure) if np.any(mask)]
+    count = np.zeros(len(outside), np.intp)
+    # The views in turn, each on the vertices still in question: one that a view cut for
+    # sure, or that too few views are left to cut, is settled (most are after a few views).
+    pending = np.arange(len(outside))
+    for k, (cam, mask, doubt) in enumerate(used):
+        pixels, depth = cam.project(outside[pending])
+        x, y = np.rint(pixels[:, 0]).astype(np.intp), np.rint(pixels[:, 1]).astype(np.intp)
+        seen = np.flatnonzero((depth > 0) & (x >= 0) & (x < cam.width) & (y >= 0) & (y < cam.height))
+        cut = np.zeros(len(pending), bool)
+        cut[seen] = mask[y[seen], x[seen]] == 0
+        sure = cut.copy()
+        if doubt is not None:
+            sure[seen] &= ~np.asarray(doubt)[y[seen], x[seen]]
+        count[pending] += cut
+        pending = pending[~sure & (count[pending] + len(used) - 1 - k >= views)]
+    doubtful = np.zeros(len(outside), bool)
+    doubtful[pending] = count[pending] >= views
+    return doubtful
 
 
 MAX_VOXELS_A_SIDE = 4096

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._files import atomic_write
-from hullcap.errors import ModelError
+from hullcap.errors import ArrayError, ModelError
 
 __all__ = ["Surface", "face_normals", "vertex_normals", "check_closed", "is_closed", "smoothed_over_mesh", "read_mesh",
            "write_mesh"]
@@ -39,6 +39,16 @@ class Surface:
         vertices = np.ascontiguousarray(vertices, dtype=np.float64)
         faces = np.ascontiguousarray(faces, dtype=np.int64)
         return cls(vertices, faces, vertex_normals(vertices, faces))
+
+    def subset(self, keep) -> Surface:
+        """The surface of the vertices where `keep` (V,) bool is true, in their order, and
+        of the faces whose three corners are all kept; the normals stay as they are."""
+        keep = np.asarray(keep, bool)
+        if keep.shape != (len(self.vertices),):
+            raise ArrayError(f"keep has shape {keep.shape}, the surface {len(self.vertices)} vertices")
+        number = np.cumsum(keep) - 1
+        faces = self.faces[keep[self.faces].all(axis=1)]
+        return Surface(self.vertices[keep], number[faces], self.normals[keep])
 
 
 def face_normals(vertices: np.ndarray, faces: np.ndarray, unit: bool = True) -> np.ndarray:
