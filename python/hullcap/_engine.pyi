@@ -439,6 +439,29 @@ def carve(
         1 × 1 × 1 empty occupancy at index (0, 0, 0).
     """
 
+def doubtful_points(
+    points: ArrayLike3,
+    views: list[tuple[object, object, object, object, npt.ArrayLike, npt.ArrayLike | None]],
+    min_views: int,
+    threads: int | None = None,
+) -> npt.NDArray[np.bool_]:
+    """For each point, whether at least `min_views` views leave it out of their
+    silhouettes and none of them was sure of the background there (docs/design.md §7).
+
+    Each point is projected into each view (distortion included) and read at the nearest
+    pixel (ties to even), as the carving reads it; views that do not see it (behind the
+    camera, or outside the image) say nothing of it.
+
+    Args:
+        points: (N, 3) world points.
+        views: per camera ``(K, dist, R, t, mask, unsure)``: the camera as
+            :class:`hullcap.Camera` holds it, its (height, width) uint8 silhouette
+            (non-zero keeps a pixel) and a bool image of the same size, true where its
+            verdict of background was not sure, or ``None`` for sure everywhere.
+        min_views: how many views must leave a point out.
+        threads: worker threads; ``None`` = $HULLCAP_THREADS if set, else all cores.
+    """
+
 def background_evidence(
     image: npt.ArrayLike,
     planes: npt.ArrayLike,

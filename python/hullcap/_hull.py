@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from hullcap._cameras import Cameras
-from hullcap._engine import carve, gaussian_blur, isosurface
+from hullcap._engine import carve, doubtful_points, gaussian_blur, isosurface
 from hullcap._mesh import Surface
 from hullcap._silhouette import distance_outside, signed_distance
 from hullcap._threads import over_views
@@ -175,25 +175,9 @@ def doubtful_vertices(surface: Surface, masks, unsure, cameras: Cameras, reach: 
     if not len(masks) == len(unsure) == len(cameras):
         raise HullError(f"{len(masks)} masks, {len(unsure)} unsure images for {len(cameras)} cameras")
     outside = np.asarray(surface.vertices) + reach * np.asarray(surface.normals)
-    used = [(cam, np.asarray(mask), doubt) for cam, mask, doubt in zip(cameras, masks, unsure) if np.any(mask)]
-    count = np.zeros(len(outside), np.intp)
-    # The views in turn, each on the vertices still in question: one that a view cut for
-    # sure, or that too few views are left to cut, is settled (most are after a few views).
-    pending = np.arange(len(outside))
-    for k, (cam, mask, doubt) in enumerate(used):
-        pixels, depth = cam.project(outside[pending])
-        x, y = np.rint(pixels[:, 0]).astype(np.intp), np.rint(pixels[:, 1]).astype(np.intp)
-        seen = np.flatnonzero((depth > 0) & (x >= 0) & (x < cam.width) & (y >= 0) & (y < cam.height))
-        cut = np.zeros(len(pending), bool)
-        cut[seen] = mask[y[seen], x[seen]] == 0
-        sure = cut.copy()
-        if doubt is not None:
-            sure[seen] &= ~np.asarray(doubt)[y[seen], x[seen]]
-        count[pending] += cut
-        pending = pending[~sure & (count[pending] + len(used) - 1 - k >= views)]
-    doubtful = np.zeros(len(outside), bool)
-    doubtful[pending] = count[pending] >= views
-    return doubtful
+    cutting = [(cam.K, cam.dist, cam.R, cam.t, mask, doubt)
+               for cam, mask, doubt in zip(cameras, masks, unsure) if np.any(mask)]
+    return doubtful_points(outside, cutting, views)
 
 
 MAX_VOXELS_A_SIDE = 4096

@@ -34,6 +34,7 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(raster::coverage, m)?)?;
     m.add_function(wrap_pyfunction!(raster::classify_cells, m)?)?;
     m.add_function(wrap_pyfunction!(raster::carve, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::doubtful_points, m)?)?;
     m.add_function(wrap_pyfunction!(raster::background_evidence, m)?)?;
     m.add_function(wrap_pyfunction!(raster::background_distortions, m)?)?;
     m.add_function(wrap_pyfunction!(raster::gaussian_blur, m)?)?;

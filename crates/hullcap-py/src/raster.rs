@@ -140,6 +140,75 @@ pub(crate) fn classify_cells<'py>(
     ))
 }
 
+/// Whether the views that leave each point out of their silhouettes were all unsure of
+/// it, and enough of them; see `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (points, views, min_views, threads=None))]
+pub(crate) fn doubtful_points<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    views: Vec<Bound<'py, PyAny>>,
+    min_views: i64,
+    threads: Option<i64>,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let points = rows3(points, "points")?;
+    let min_views = arrays::count(min_views, "min_views", 0)?;
+    let threads = arrays::threads(threads)?;
+    let mut parsed = Vec::with_capacity(views.len());
+    for (i, view) in views.iter().enumerate() {
+        let name = format!("views[{i}]");
+        let (k, dist, r, t, mask, unsure): CutTuple<'py> = view.extract().map_err(|_| {
+            ArrayError::new_err(format!(
+                "{name} must be (K, dist, R, t, mask, unsure or None)"
+            ))
+        })?;
+        let camera = hullcap_raster::Camera {
+            k: matrix3(&k, &format!("{name}.K"))?,
+            dist: numbers(&dist, &format!("{name}.dist"), &[])?,
+            r: matrix3(&r, &format!("{name}.R"))?,
+            t: numbers(&t, &format!("{name}.t"), &[])?,
+        };
+        let (mask, [h, w]) =
+            contiguous::<u8, 2>(&mask, "uint8", &format!("{name}.mask"), "(height, width)")?;
+        let unsure = unsure
+            .map(|u| {
+                contiguous::<bool, 2>(&u, "bool", &format!("{name}.unsure"), "(height, width)")
+            })
+            .transpose()?;
+        if let Some((_, [uh, uw])) = unsure.as_ref().filter(|(_, shape)| *shape != [h, w]) {
+            return Err(ArrayError::new_err(format!(
+                "{name}.unsure is {uw}×{uh}, its mask {w}×{h}"
+            )));
+        }
+        parsed.push((camera, w, h, mask, unsure.map(|(u, _)| u)));
+    }
+    let cut_views: Vec<_> = parsed
+        .iter()
+        .map(|(camera, w, h, mask, unsure)| hullcap_raster::CutView {
+            camera: *camera,
+            width: *w,
+            height: *h,
+            mask: mask.as_slice().unwrap_or(&[]),
+            unsure: unsure.as_ref().map(|u| u.as_slice().unwrap_or(&[])),
+        })
+        .collect();
+    let p = points.rows();
+    let doubtful = detached(py, || {
+        hullcap_raster::doubtful_points(p, &cut_views, min_views, threads)
+    })?;
+    Ok(arrays::vec1(py, doubtful))
+}
+
+/// One view as `doubtful_points` takes it from Python.
+type CutTuple<'py> = (
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    Option<Bound<'py, PyAny>>,
+);
+
 /// Coarse-to-fine carving into a box of kept finest voxels; see `hullcap._engine.pyi`.
 #[pyfunction]
 #[pyo3(signature = (lo, voxel, fine, levels, views, tolerance, min_views, threads=None))]

@@ -342,16 +342,100 @@ fn classify(
     }
 }
 
+/// One view as [`doubtful_points`] reads it: the camera, and its silhouette and where the
+/// silhouette's verdict of background was not sure, row-major `width × height` each.
+#[derive(Debug, Clone, Copy)]
+pub struct CutView<'a> {
+    /// The calibration.
+    pub camera: Camera,
+    /// Image width in pixels.
+    pub width: usize,
+    /// Image height in pixels.
+    pub height: usize,
+    /// Non-zero where the silhouette keeps the pixel.
+    pub mask: &'a [u8],
+    /// True where its verdict of background was not sure; `None`: sure everywhere.
+    pub unsure: Option<&'a [bool]>,
+}
+
+/// For each point, whether at least `min_views` views leave it out of their silhouettes
+/// and none of them was sure of the background there: where a hull was cut by views that
+/// were all unsure (docs/design.md §7). A point is read at its nearest pixel (ties to
+/// even), as the carving reads it; views that do not see it (behind the camera, or
+/// outside the image) say nothing of it. Threads share the points.
+pub fn doubtful_points(
+    points: &[[f64; 3]],
+    views: &[CutView<'_>],
+    min_views: usize,
+    threads: Option<usize>,
+) -> Result<Vec<bool>, RasterError> {
+    for (index, view) in views.iter().enumerate() {
+        let pixels = view.width * view.height;
+        let lens = std::iter::once(view.mask.len()).chain(view.unsure.map(<[bool]>::len));
+        if let Some(len) = lens.into_iter().find(|&len| len != pixels) {
+            return Err(RasterError::ImageSize {
+                index,
+                len,
+                width: view.width,
+                height: view.height,
+            });
+        }
+    }
+    let mut doubtful = vec![false; points.len()];
+    for_each_chunk_mut(
+        &mut doubtful,
+        resolve_threads(threads),
+        4096,
+        |offset, chunk| {
+            for (flag, point) in chunk.iter_mut().zip(&points[offset..]) {
+                *flag = doubted(point, views, min_views);
+            }
+        },
+    )?;
+    Ok(doubtful)
+}
+
+/// One point of [`doubtful_points`]: the views that leave it out unsure are counted,
+/// and one that leaves it out for sure settles it.
+fn doubted(point: &[f64; 3], views: &[CutView<'_>], min_views: usize) -> bool {
+    let mut unsure = 0;
+    for view in views {
+        let Some((u, v, _)) = pixel_in(point, &view.camera, view.width, view.height) else {
+            continue;
+        };
+        let at = v * view.width + u;
+        if view.mask[at] != 0 {
+            continue;
+        }
+        if !view.unsure.is_some_and(|doubt| doubt[at]) {
+            return false;
+        }
+        unsure += 1;
+    }
+    unsure >= min_views
+}
+
 /// The pixel (column, row) nearest the point's projection, ties to even, and the point's
 /// depth; `None` behind the camera or outside the image.
 #[inline]
 fn pixel_of(point: &[f64; 3], view: &CarveView<'_>) -> Option<(usize, usize, f64)> {
-    let (u, v, z) = view.camera.project(point);
+    pixel_in(point, &view.camera, view.width, view.height)
+}
+
+/// [`pixel_of`] for a camera and its image size.
+#[inline]
+fn pixel_in(
+    point: &[f64; 3],
+    camera: &Camera,
+    width: usize,
+    height: usize,
+) -> Option<(usize, usize, f64)> {
+    let (u, v, z) = camera.project(point);
     if z <= NEAR {
         return None;
     }
     let (u, v) = (nearest(u), nearest(v));
-    let inside = u >= 0.0 && v >= 0.0 && u < view.width as f64 && v < view.height as f64;
+    let inside = u >= 0.0 && v >= 0.0 && u < width as f64 && v < height as f64;
     inside.then_some((u as usize, v as usize, z))
 }
 
@@ -465,6 +549,80 @@ mod tests {
         assert!(matches!(
             classify_cells(&[[0.0, 0.0, 1.0]], 0.0, &[one], 0, 1, None),
             Err(RasterError::ImageSize { index: 0, .. })
+        ));
+    }
+
+    #[test]
+    fn doubtful_points_are_what_counting_every_view_by_hand_gives() {
+        // Three cameras like `view`'s, shifted sideways; 3 × 3 silhouettes and unsure
+        // images of every pattern of a few bits; points on a grid at depth 1 (pixels 1
+        // apart) and one behind the cameras.
+        let shifts = [0.0, 0.1, -0.2];
+        let masks: Vec<[u8; 9]> = (0..3)
+            .map(|k| std::array::from_fn(|i| u8::from((i * 7 + k * 3) % 4 == 0)))
+            .collect();
+        let unsure: Vec<[bool; 9]> = (0..3)
+            .map(|k| std::array::from_fn(|i| (i + k) % 3 != 0))
+            .collect();
+        let views: Vec<CutView<'_>> = (0..3)
+            .map(|k| CutView {
+                camera: Camera {
+                    t: [shifts[k], 0.0, 0.0],
+                    ..view(None).camera
+                },
+                width: 3,
+                height: 3,
+                mask: &masks[k],
+                unsure: (k != 2).then_some(&unsure[k][..]),
+            })
+            .collect();
+        let mut points: Vec<[f64; 3]> = (-4..=4)
+            .flat_map(|i| (-3..=3).map(move |j| [f64::from(i) * 0.05, f64::from(j) * 0.1, 1.0]))
+            .collect();
+        points.push([0.0, 0.0, -1.0]);
+        for min_views in 0..4 {
+            let got = doubtful_points(&points, &views, min_views, Some(2)).unwrap();
+            for (point, got) in points.iter().zip(got) {
+                let (mut unsure_cuts, mut sure_cut) = (0, false);
+                for (k, v) in views.iter().enumerate() {
+                    if point[2] <= 0.0 {
+                        continue;
+                    }
+                    let u = (10.0 * (point[0] + shifts[k]) / point[2] + 1.0).round_ties_even();
+                    let r = (10.0 * point[1] / point[2] + 1.0).round_ties_even();
+                    if !(0.0..3.0).contains(&u) || !(0.0..3.0).contains(&r) {
+                        continue;
+                    }
+                    let at = r as usize * 3 + u as usize;
+                    if v.mask[at] == 0 {
+                        match v.unsure {
+                            Some(doubt) if doubt[at] => unsure_cuts += 1,
+                            _ => sure_cut = true,
+                        }
+                    }
+                }
+                assert_eq!(
+                    got,
+                    !sure_cut && unsure_cuts >= min_views,
+                    "{point:?}, {min_views}"
+                );
+            }
+        }
+        let short = [0u8; 4];
+        let bad = [
+            views[0],
+            CutView {
+                mask: &short,
+                ..views[1]
+            },
+        ];
+        assert!(matches!(
+            doubtful_points(&points, &bad, 1, None),
+            Err(RasterError::ImageSize {
+                index: 1,
+                len: 4,
+                ..
+            })
         ));
     }
 }

@@ -22,7 +22,8 @@
 //! [`classify_cells`] projects each cell's centre into every view (with distortion), reads
 //! the view's distance image there and decides whether the cell is out, in or to be split,
 //! in one parallel pass over a level's cells. [`gaussian_blur`] smooths the occupancy it
-//! returns and [`isosurface`] turns that into a closed triangle mesh.
+//! returns and [`isosurface`] turns that into a closed triangle mesh. [`doubtful_points`]
+//! tells which points of that mesh were cut by views that were all unsure of it.
 
 mod background;
 mod carve;
@@ -32,7 +33,10 @@ mod smooth;
 mod whole;
 
 pub use background::{BackgroundPlanes, EvidenceRule, background_distortions, background_evidence};
-pub use carve::{BoxedDistance, Camera, CarveView, Carved, Verdict, carve, classify_cells};
+pub use carve::{
+    BoxedDistance, Camera, CarveView, Carved, CutView, Verdict, carve, classify_cells,
+    doubtful_points,
+};
 pub use isosurface::{Isosurface, isosurface};
 pub use raster::{RasterError, Rendered, coverage, rasterize};
 pub use smooth::gaussian_blur;
