@@ -616,6 +616,13 @@ def test_a_hull_cut_by_views_that_were_unsure_is_doubtful_there_alone():
     np.testing.assert_array_equal(kept.vertices[kept.faces], hull.vertices[hull.faces[(~doubt)[hull.faces].all(1)]])
     with pytest.raises(ValueError, match="unsure"):
         doubtful_vertices(hull, masks, unsure[:-1], cams)
+    from hullcap._engine import doubtful_points
+
+    c = cams[0]
+    with pytest.raises(ArrayError, match=r"views\[0\]\.unsure is 3×2"):
+        doubtful_points(hull.vertices, [(c.K, c.dist, c.R, c.t, masks[0], np.zeros((2, 3), bool))], 1)
+    with pytest.raises(ArrayError, match=r"views\[0\] must be"):
+        doubtful_points(hull.vertices, [(c.K, c.dist, c.R, c.t, masks[0])], 1)
     with pytest.raises(ArrayError, match="keep"):
         hull.subset(doubt[:-1])
     for bad in ({"hull_doubt": 0.0}, {"hull_doubt_views": 0}):

@@ -162,12 +162,7 @@ pub(crate) fn doubtful_points<'py>(
                 "{name} must be (K, dist, R, t, mask, unsure or None)"
             ))
         })?;
-        let camera = hullcap_raster::Camera {
-            k: matrix3(&k, &format!("{name}.K"))?,
-            dist: numbers(&dist, &format!("{name}.dist"), &[])?,
-            r: matrix3(&r, &format!("{name}.R"))?,
-            t: numbers(&t, &format!("{name}.t"), &[])?,
-        };
+        let camera = camera(&k, &dist, &r, &t, &name)?;
         let (mask, [h, w]) =
             contiguous::<u8, 2>(&mask, "uint8", &format!("{name}.mask"), "(height, width)")?;
         let unsure = unsure
@@ -355,12 +350,7 @@ fn parse_views<'py>(views: &[Bound<'py, PyAny>]) -> PyResult<Vec<ParsedView<'py>
                     "{name} must be (K, dist, R, t, focal, signed, prior or None)"
                 ))
             })?;
-        let camera = hullcap_raster::Camera {
-            k: matrix3(&k, &format!("{name}.K"))?,
-            dist: numbers(&dist, &format!("{name}.dist"), &[])?,
-            r: matrix3(&r, &format!("{name}.R"))?,
-            t: numbers(&t, &format!("{name}.t"), &[])?,
-        };
+        let camera = camera(&k, &dist, &r, &t, &name)?;
         let signed = distances(&signed, &format!("{name}.signed"))?;
         let [w, h] = signed.image_size;
         let prior = prior
@@ -595,6 +585,22 @@ type ViewTuple<'py> = (
     Bound<'py, PyAny>,
     Option<Bound<'py, PyAny>>,
 );
+
+/// A view's calibration from its `K`, `dist`, `R` and `t`; errors name the view `name`.
+fn camera(
+    k: &Bound<'_, PyAny>,
+    dist: &Bound<'_, PyAny>,
+    r: &Bound<'_, PyAny>,
+    t: &Bound<'_, PyAny>,
+    name: &str,
+) -> PyResult<hullcap_raster::Camera> {
+    Ok(hullcap_raster::Camera {
+        k: matrix3(k, &format!("{name}.K"))?,
+        dist: numbers(dist, &format!("{name}.dist"), &[])?,
+        r: matrix3(r, &format!("{name}.R"))?,
+        t: numbers(t, &format!("{name}.t"), &[])?,
+    })
+}
 
 /// `obj` as a 3 × 3 float64 matrix, row-major.
 fn matrix3(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<[[f64; 3]; 3]> {
