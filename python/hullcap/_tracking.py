@@ -566,7 +566,7 @@ class Tracker:
             if doubt is not None and any(u is not None for u in unsure):
                 keep = ~doubtful_vertices(surface, masks, unsure, self.sequence.cameras, doubt,
                                           self.options.hull_doubt_views)
-                surface = surface.subset(keep) if keep.any() else surface
+                surface = surface.subset(keep) if keep.any() else surface  # an empty target fits nothing
             return surface, masks
         finally:
             for name, why in report.skipped.items():

@@ -371,8 +371,8 @@ pub fn doubtful_points(
 ) -> Result<Vec<bool>, RasterError> {
     for (index, view) in views.iter().enumerate() {
         let pixels = view.width * view.height;
-        let lens = std::iter::once(view.mask.len()).chain(view.unsure.map(<[bool]>::len));
-        if let Some(len) = lens.into_iter().find(|&len| len != pixels) {
+        let mut lens = std::iter::once(view.mask.len()).chain(view.unsure.map(<[bool]>::len));
+        if let Some(len) = lens.find(|&len| len != pixels) {
             return Err(RasterError::ImageSize {
                 index,
                 len,
@@ -554,9 +554,10 @@ mod tests {
 
     #[test]
     fn doubtful_points_are_what_counting_every_view_by_hand_gives() {
-        // Three cameras like `view`'s, shifted sideways; 3 × 3 silhouettes and unsure
-        // images of every pattern of a few bits; points on a grid at depth 1 (pixels 1
-        // apart) and one behind the cameras.
+        // Three cameras like `view`'s, shifted sideways, each with its own 3 × 3
+        // silhouette and unsure image (the third sure everywhere); points on a grid at
+        // depth 1 (half a pixel apart across, ties included; a pixel apart down) and one
+        // behind the cameras.
         let shifts = [0.0, 0.1, -0.2];
         let masks: Vec<[u8; 9]> = (0..3)
             .map(|k| std::array::from_fn(|i| u8::from((i * 7 + k * 3) % 4 == 0)))
