@@ -582,10 +582,12 @@ def test_hull_of_a_box_contains_it_and_hugs_its_faces():
 
 
 def test_a_hull_cut_by_views_that_were_unsure_is_doubtful_there_alone():
-    """Three views miss a ball's top, unsure of it (clothes the colour of the room): a
+    """Four views miss a ball's top, unsure of it (clothes the colour of the room): a
     tolerance of one view cannot keep it, and the cut's flat face is doubtful; the rest
     of the ball, which every view cut where it saw the room for sure, is not. One of the
-    three views sure of its cut, or asking for more views than cut it, vouches for it."""
+    four views sure of its cut vouches for what it cut, and asking for more views than
+    cut it (five), for all of it. The engine's own call names a bad view."""
+    from hullcap._engine import doubtful_points
     from hullcap._hull import doubtful_vertices
     from hullcap._tracking import TrackerOptions
 
@@ -616,8 +618,6 @@ def test_a_hull_cut_by_views_that_were_unsure_is_doubtful_there_alone():
     np.testing.assert_array_equal(kept.vertices[kept.faces], hull.vertices[hull.faces[(~doubt)[hull.faces].all(1)]])
     with pytest.raises(ValueError, match="unsure"):
         doubtful_vertices(hull, masks, unsure[:-1], cams)
-    from hullcap._engine import doubtful_points
-
     c = cams[0]
     with pytest.raises(ArrayError, match=r"views\[0\]\.unsure is 3×2"):
         doubtful_points(hull.vertices, [(c.K, c.dist, c.R, c.t, masks[0], np.zeros((2, 3), bool))], 1)

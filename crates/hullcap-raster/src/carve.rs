@@ -309,7 +309,7 @@ fn classify(
     let (mut left_out, mut seen_by) = (0, 0);
     let (mut all_inside, mut prior_out) = (true, false);
     for view in views {
-        let Some((u, v, depth)) = pixel_of(centre, view) else {
+        let Some((u, v, depth)) = pixel_in(centre, &view.camera, view.width, view.height) else {
             all_inside = false; // unseen: decided at the finest level
             continue;
         };
@@ -415,14 +415,8 @@ fn doubted(point: &[f64; 3], views: &[CutView<'_>], min_views: usize) -> bool {
     unsure >= min_views
 }
 
-/// The pixel (column, row) nearest the point's projection, ties to even, and the point's
-/// depth; `None` behind the camera or outside the image.
-#[inline]
-fn pixel_of(point: &[f64; 3], view: &CarveView<'_>) -> Option<(usize, usize, f64)> {
-    pixel_in(point, &view.camera, view.width, view.height)
-}
-
-/// [`pixel_of`] for a camera and its image size.
+/// The pixel (column, row) nearest the point's projection by `camera`, ties to even, and
+/// the point's depth; `None` behind the camera or outside the `width × height` image.
 #[inline]
 fn pixel_in(
     point: &[f64; 3],
