@@ -144,7 +144,7 @@ def test_the_girdle_fit_stands_within_its_tolerance_in_tracking_and_only_when_be
 
     from hullcap._fitting import PoseParameters
     from hullcap._reacquire import SearchOptions
-    from hullcap._tracking import _State
+    from hullcap._tracking_state import TrackingState
     from hullcap.errors import OptionsError
 
     model = BodyModel.template()
@@ -153,7 +153,7 @@ def test_the_girdle_fit_stands_within_its_tolerance_in_tracking_and_only_when_be
     for side in "lr":
         theta[names.index(f"{side}_shoulder_abduction")] = np.radians(85)
     pose = PoseParameters(theta, np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
-    state = _State(model, TrackerOptions(), None)
+    state = TrackingState(model, TrackerOptions(), None)
     girdle = state.search.girdle_start(pose)
     lowered = PoseParameters(np.zeros(model.n_dofs), pose.root_rotation, pose.root_translation)
 
@@ -293,7 +293,7 @@ def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
     """An elbow or knee a fit turned more than `hinge_jump` from the prediction is limited
     to within `hinge_hold` of the prediction for the fit that checks it; nothing else is."""
     from hullcap._fitting import PoseParameters
-    from hullcap._tracking import _State
+    from hullcap._tracking_state import TrackingState
     from hullcap.errors import OptionsError
 
     model = BodyModel.template()
@@ -305,7 +305,7 @@ def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
     theta[names.index("l_shoulder_flexion")] = np.radians(90)  # not a hinge
     fitted = PoseParameters(theta, predicted.root_rotation, predicted.root_translation)
     options = TrackerOptions()
-    state = _State(model, options, None)
+    state = TrackingState(model, options, None)
     held = state.hinges_held(predicted, fitted)
     before, after = model.link_model.dof_limits, held.link_model.dof_limits
     elbow = names.index("l_elbow_flexion")
@@ -315,6 +315,6 @@ def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
     assert np.array_equal(held.vertices, model.vertices) and all(
         np.array_equal(a, b) for a, b in zip(held.skin, model.skin))
     assert state.hinges_held(predicted, predicted) is None
-    assert _State(model, TrackerOptions(hinge_jump=None), None).hinges_held(predicted, fitted) is None
+    assert TrackingState(model, TrackerOptions(hinge_jump=None), None).hinges_held(predicted, fitted) is None
     with pytest.raises(OptionsError, match="hinge_jump"):
         TrackerOptions(hinge_jump=0.0)

@@ -101,7 +101,7 @@ def test_a_fit_a_search_confirmed_is_the_bar_until_the_hull_is_whole_again(model
 
     from hullcap._fitting import make_target
     from hullcap._reacquire import CHAINS
-    from hullcap._tracking import _State
+    from hullcap._tracking_state import TrackingState
 
     root = np.array([0.0, 0.0, model.rest_root_height])
     posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
@@ -117,7 +117,7 @@ def test_a_fit_a_search_confirmed_is_the_bar_until_the_hull_is_whole_again(model
     whole, one_arm, two_arms = (fit(model, hull_without(*links), start, options.fit) for links in
                                 [(), ("l_upper_arm", "l_forearm"),
                                  ("l_upper_arm", "l_forearm", "r_upper_arm", "r_forearm")])
-    state = _State(model, options, whole)
+    state = TrackingState(model, options, whole)
     assert not state.good(one_arm) and not state.good(two_arms)
     assert state.decide(one_arm, one_arm) == (one_arm, GOOD)
     state.remember_fit(one_arm)
@@ -264,10 +264,10 @@ def test_the_state_a_checkpoint_carries_comes_back_whole(model):
     # the results alone do not say, through a checkpoint's arrays and back.
     import io
 
-    from hullcap._tracking import _State
+    from hullcap._tracking_state import TrackingState
 
     def state_of():
-        return _State(model, TrackerOptions(), anchor=None)
+        return TrackingState(model, TrackerOptions(), anchor=None)
 
     state = state_of()
     chains = len(state.chains)

@@ -33,10 +33,9 @@ import io
 import math
 import time
 import warnings
-from collections import defaultdict, deque
+from collections import defaultdict
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
-from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +47,7 @@ from hullcap._guided import GuidedOptions, GuidedSegmenter, dilated
 from hullcap._hull import HullReport, capture_volume, check_bounds, doubtful_vertices, visual_hull
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
-from hullcap._reacquire import CHAINS, PoseSearch, SearchOptions, chain_links, chain_quality
+from hullcap._reacquire import SearchOptions
 from hullcap._render import render_silhouette
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff, write_outputs
 from hullcap._sequence import Sequence
@@ -56,16 +55,15 @@ from hullcap._silhouette import background_model
 from hullcap._subject import (SubjectOptions, bent_frames, build_subject, fitted_surface, place_model,
                               search_centres, with_hands)
 from hullcap._threads import ReadAhead, over_fits, over_views
+from hullcap._tracking_state import CARRIED_SEARCH, TrackingState
 from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
 
-# The checkpoint's arrays of what a run learnt besides its results (Tracker._learnt),
-# and of what tracking carries from frame to frame (_State.carried).
+# The checkpoint's arrays of what a run learnt besides its results (Tracker._learnt);
+# what tracking carries from frame to frame has its own (TrackingState.carried).
 LEARNT_TEACH_AT = "learnt_teach_at"
 LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
-CARRIED_REFERENCE, CARRIED_CHAIN_REFERENCE = "carried_reference", "carried_chain_reference"
-CARRIED_CONFIRMED, CARRIED_ANCHOR, CARRIED_SEARCH = "carried_confirmed", "carried_anchor", "carried_search"
 CHECKPOINT = ".checkpoint.npz"
 PROBLEMS = "problems.json"
 
@@ -723,7 +721,7 @@ class Tracker:
         strict = replace(self.options, fit=self.options.calibration_fit, quick_fit=None, girdle_fit=None,
                          recheck_margin=None, search=replace(self.options.search, girdle_tolerance=0.0),
                          hull_doubt=None)
-        state = _State(subject.model, strict, subject.fit, search_fit=self.options.fit)
+        state = TrackingState(subject.model, strict, subject.fit, search_fit=self.options.fit)
         for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
             self._track(state, window, frame)
         good = [f for f in range(first, last) if not window.failed[f]]
@@ -754,7 +752,7 @@ class Tracker:
         return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
 
     def _tracking_state(self, model: BodyModel, first: int | None = None, anchor: FitResult | None = None,
-                        built: BodyModel | None = None) -> _State:
+                        built: BodyModel | None = None) -> TrackingState:
         """The state of tracking a sequence with `model`: its fits take the model with the
         hands of ``options.hand_reach`` (by default as the silhouettes' source asks), the
         silhouettes are guided by `model` itself. The anchor (the fit at frame `first` of
@@ -765,9 +763,9 @@ class Tracker:
         if anchor is not None and fitted is not built:
             target = make_target(self.hull(first, (built, anchor.pose)))
             anchor = fit(fitted, target, anchor.pose.carried(built, fitted), self.options.subject.fit)
-        return _State(fitted, self.options, anchor, guide=model)
+        return TrackingState(fitted, self.options, anchor, guide=model)
 
-    def _track(self, state: _State, result: TrackingResult, frame: int) -> None:
+    def _track(self, state: TrackingState, result: TrackingResult, frame: int) -> None:
         """Fit one frame, judge it, search when needed, and record it, by the state's
         options. Its silhouettes are guided by the predicted pose when the frame before
         was tracked (after a failure, a wrong prediction would hide the person it missed)."""
@@ -842,7 +840,7 @@ class Tracker:
             self._teach_at = [f for f in self._teach_at if f > frame]
             self.learn_colours(frame, state.guide, best.pose, images=self._segmented[1])
 
-    def _fit_from(self, state: _State, target, start: PoseParameters, options: FitOptions,
+    def _fit_from(self, state: TrackingState, target, start: PoseParameters, options: FitOptions,
                   model: BodyModel | None = None) -> FitResult:
         """A tracking fit from `start` (of `model`, by default the state's), whose joints
         are held near it by the motion prior (``TrackerOptions.motion_sigma``)."""
@@ -851,7 +849,7 @@ class Tracker:
                                                      state.options.motion_prior_distance)
         return fit(model or state.model, target, start, options, prior=prior)
 
-    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, state: _State) -> None:
+    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, state: TrackingState) -> None:
         buf = io.BytesIO()
         np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays(),
                  **self._learnt(), **state.carried())
@@ -930,191 +928,3 @@ def _overrulable(silhouette: np.ndarray, unsure: np.ndarray | None, band: float)
 def _spread(frames: list[int], n: int) -> list[int]:
     """Up to `n` of `frames`, spread evenly over them (the first and the last among them)."""
     return sorted({frames[int(round(i))] for i in np.linspace(0, len(frames) - 1, n)})
-
-
-class _State:
-    """What tracking carries from frame to frame: the model it fits and the one that
-    guides the silhouettes (`guide`, default the same), the search, the reference quality
-    and the pose tracking started from."""
-
-    def __init__(self, model: BodyModel, options: TrackerOptions, anchor: FitResult | None,
-                 search_fit: FitOptions | None = None, guide: BodyModel | None = None):
-        self.model = model
-        self.guide = guide or model
-        self.options = options
-        # The search fits its candidates with `search_fit` when given; a pose it finds is
-        # then fitted again with the options' own fit (the subject's window, Tracker._refine).
-        self.search = PoseSearch(model, search_fit or options.fit, options.search, options.seed)
-        self.refit_found = search_fit is not None
-        self.chains = chain_links(model)
-        self.hinges = [i for i, name in enumerate(model.dof_names) if name.endswith(("elbow_flexion", "knee_flexion"))]
-        # The limbs are judged on their own; the trunk, most of the body, by the whole.
-        self.limbs = [c for c, name in enumerate(CHAINS) if name != "trunk"]
-        self.reference: deque = deque(maxlen=options.quality_window)
-        self.chain_reference: deque = deque(maxlen=options.quality_window)
-        self._medians: tuple[float, np.ndarray] | None = None  # of the references, until they change
-        self.anchor_pose = anchor.pose if anchor is not None else None
-        # A tracked fit no search could beat, as (quality, chain qualities): the bar of
-        # the frames after it (TrackerOptions.recheck_margin).
-        self.confirmed: tuple[float, np.ndarray] | None = None
-        if anchor is not None:
-            self.remember_fit(anchor)
-
-    def hinges_held(self, predicted: PoseParameters, fitted: PoseParameters) -> BodyModel | None:
-        """The model with each elbow and knee that `fitted` turned more than
-        ``hinge_jump`` from `predicted` limited to within ``hinge_hold`` of it; ``None``
-        when none did."""
-        o = self.options
-        if o.hinge_jump is None:
-            return None
-        jumped = [i for i in self.hinges if abs(fitted.theta[i] - predicted.theta[i]) > o.hinge_jump]
-        if not jumped:
-            return None
-        own = self.model.link_model.dof_limits
-        limits = own.copy()
-        for i in jumped:
-            limits[i] = np.clip(predicted.theta[i] + np.array([-o.hinge_hold, o.hinge_hold]), *own[i])
-        return self.model.with_dof_limits(limits)
-
-    def remember_fit(self, fitted) -> None:
-        """Take an accepted fit's quality, and its chains', into the references."""
-        if self.passes_reference(fitted):
-            self.confirmed = None
-        self.reference.append(quality(fitted))
-        self.chain_reference.append(chain_quality(fitted.link_counts, self.chains))
-        self._medians = None
-
-    def remember(self, result: TrackingResult, upto: int) -> None:
-        """Take the reference quality and the anchor from frames already tracked (resume)."""
-        done = [f for f in range(upto) if not result.failed[f]]
-        for f in done[-self.options.quality_window:]:
-            self.reference.append(float(result.quality[f]))
-            self.chain_reference.append(chain_quality(result.link_counts[f], self.chains))
-        self._medians = None
-        if done:
-            self.anchor_pose = result.pose(done[0])
-
-    def carried(self) -> dict:
-        """What the state carries that the results do not hold, as a checkpoint's arrays
-        (:meth:`take_back`): the references, the confirmed bar, the anchor and where the
-        search's random draws stand."""
-        anchor = self.anchor_pose
-        return {
-            CARRIED_REFERENCE: np.asarray(self.reference, float),
-            CARRIED_CHAIN_REFERENCE: np.asarray(self.chain_reference, float).reshape(-1, len(self.chains)),
-            CARRIED_CONFIRMED: np.empty(0) if self.confirmed is None else np.r_[self.confirmed[0], self.confirmed[1]],
-            CARRIED_ANCHOR: np.empty(0) if anchor is None else
-            np.r_[anchor.theta, np.ravel(anchor.root_rotation), anchor.root_translation],
-            CARRIED_SEARCH: np.asarray(self.search.random_state),
-        }
-
-    def take_back(self, arrays: dict) -> None:
-        """The state as :meth:`carried` left it (resume); KeyError or ValueError when
-        `arrays` do not hold it."""
-        self.reference.extend(np.asarray(arrays[CARRIED_REFERENCE], float))
-        self.chain_reference.extend(np.asarray(arrays[CARRIED_CHAIN_REFERENCE], float).reshape(-1, len(self.chains)))
-        confirmed = np.asarray(arrays[CARRIED_CONFIRMED], float)
-        self.confirmed = (float(confirmed[0]), confirmed[1:]) if len(confirmed) else None
-        anchor, n = np.asarray(arrays[CARRIED_ANCHOR], float), self.model.n_dofs
-        if len(anchor) not in (0, n + 12):
-            raise ValueError(f"an anchor of {len(anchor)} numbers for a model of {n} DOF")
-        self.anchor_pose = PoseParameters(anchor[:n], anchor[n:n + 9].reshape(3, 3), anchor[n + 9:]) \
-            if len(anchor) else None
-        self.search.random_state = str(arrays[CARRIED_SEARCH])
-        self._medians = None
-
-    def anchor_only(self, result: TrackingResult, frame: int) -> bool:
-        """Whether nothing before `frame` was tracked and the anchor is the prediction."""
-        return self.anchor_pose is not None and result.failed[:frame].all()
-
-    def _reference_medians(self) -> tuple[float, np.ndarray]:
-        """The medians of the reference qualities, whole body and per chain (NaN for a
-        chain never judged), worked out once for every fit judged until they change."""
-        if self._medians is None:
-            whole = float(np.median(self.reference)) if self.reference else 0.0
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", RuntimeWarning)  # a chain never judged: all NaN
-                chains = np.nanmedian(np.array(self.chain_reference), axis=0) if self.chain_reference else None
-            self._medians = (whole, chains)
-        return self._medians
-
-    def floor(self) -> float:
-        """The least whole-body quality of a good fit."""
-        return max(self.options.min_quality, self._reference_medians()[0] - self.options.quality_margin)
-
-    def lost_chains(self, fitted: FitResult) -> list[int]:
-        """The limb chains whose quality lies more than ``chain_margin`` below their
-        reference."""
-        reference = self._reference_medians()[1]
-        if reference is None:
-            return []
-        return self._chains_below(fitted, reference, self.options.chain_margin)
-
-    def _chains_below(self, fitted: FitResult, reference: np.ndarray, margin: float) -> list[int]:
-        """The limb chains of `fitted` whose quality lies more than `margin` below
-        `reference` (per chain); a chain not judged (NaN) on either side is not below."""
-        q = chain_quality(fitted.link_counts, self.chains)
-        return [c for c in self.limbs if q[c] < reference[c] - margin]
-
-    def decide(self, tracked: FitResult | None, found: FitResult) -> tuple[FitResult, int]:
-        """The fit that stands for a frame whose tracked fit did not pass, and its status,
-        given the best the search `found` (see ``TrackerOptions.confirm_margin``)."""
-        if self.good(found):
-            self.confirmed = None
-            return found, RECOVERED
-        if quality(found) < self.options.min_quality:
-            return found, FAILED
-        if tracked is not None and quality(tracked) + self.options.confirm_margin >= quality(found):
-            # The search explains this hull no better than the tracked fit: the hull got
-            # worse (fewer views see the person, a limb hides another), not the fit.
-            self.confirmed = (quality(tracked), chain_quality(tracked.link_counts, self.chains))
-            return tracked, GOOD
-        self.confirmed = None
-        return found, RECOVERED  # the search explains it better: what this hull can give
-
-    def passes_reference(self, fitted: FitResult) -> bool:
-        """Whether a fit is as good as the accepted frames before it (``quality_margin``,
-        ``chain_margin``)."""
-        return quality(fitted) >= self.floor() and not self.lost_chains(fitted)
-
-    def takes_girdle_fit(self, tracked: FitResult, fitted: FitResult) -> bool:
-        """Whether the fit from the girdle start stands for `tracked`: it reaches the same
-        arms (``SearchOptions.girdle_turn``) and explains the hull as well, or at most
-        ``SearchOptions.girdle_tolerance`` less (there the rhythm decides)."""
-        tolerance = self.search.options.girdle_tolerance
-        return quality(fitted) > quality(tracked) - tolerance and self.search.same_arm_lines(tracked.pose, fitted.pose)
-
-    def good(self, fitted: FitResult) -> bool:
-        """Whether a fit stands without a search: it passes the reference, or it is as
-        good as the last fit a search confirmed (``recheck_margin``)."""
-        if self.passes_reference(fitted):
-            return True
-        if self.confirmed is None or self.options.recheck_margin is None:
-            return False
-        bar, chains = self.confirmed
-        o = self.options
-        chain_margin = o.recheck_margin * (o.chain_margin / o.quality_margin if o.quality_margin > 0 else 1.0)
-        return quality(fitted) >= max(o.min_quality, bar - o.recheck_margin) and not self._chains_below(
-            fitted, chains, chain_margin)
-
-    def recent(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
-        """Good poses before `frame`, newest first, spaced back over about a second."""
-        good = [f for f in range(frame - 1, max(-1, frame - 1 - int(result.fps)), -1) if not result.failed[f]]
-        picks = good[:: max(1, len(good) // max(1, self.options.search.recent))][: self.options.search.recent]
-        return [result.pose(f) for f in picks]
-
-    def starts(self, result: TrackingResult, frame: int) -> list[PoseParameters]:
-        """Constant-velocity prediction from the last two frames when both are good, then
-        the last good pose; the anchor when nothing was tracked yet."""
-        good = list(islice((f for f in range(frame - 1, -1, -1) if not result.failed[f]), 2))
-        if not good:
-            return [self.anchor_pose] if self.anchor_pose is not None else []
-        last = result.pose(good[0])
-        if len(good) < 2 or good[0] - good[1] != 1 or good[0] != frame - 1:
-            return [last]
-        a, b = good[1], good[0]
-        theta = self.model.clamp(2 * result.theta[b] - result.theta[a])
-        turn = result.root_rotation[b] @ result.root_rotation[a].T
-        predicted = PoseParameters(theta, turn @ result.root_rotation[b],
-                                   2 * result.root_translation[b] - result.root_translation[a])
-        return [predicted, last]
