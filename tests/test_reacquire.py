@@ -177,6 +177,48 @@ def test_the_girdle_fit_stands_within_its_tolerance_in_tracking_and_only_when_be
     assert seen[0].girdle_tolerance == 0 and seen[-1].girdle_tolerance == tolerance
 
 
+def test_the_calibration_window_keeps_its_prior_through_poor_fits(tmp_path, monkeypatch):
+    """No frame of the window tracked for the subject's model fails: a fit under
+    `min_quality` there leaves the next frame its prior (a failed frame would not, and on
+    the development set that lost the later two thirds of a window), and it does not build
+    the model. Frames 4-6 show a crate beside the person in every view, which no pose
+    explains: their fits fall under the bar; the frames after them are still carved with a
+    prior, and none of the three is among those the model is built from."""
+    seq_path, _, _ = render(tmp_path / "seq")
+    seq = Sequence(seq_path)
+    crate = np.array([[x, y, z] for x in (1.1, 1.9) for y in (-0.4, 0.4) for z in (0.0, 0.8)])
+    poor = (4, 5, 6)
+    for f in poor:
+        for cam in seq.cameras:
+            path = seq_path / "silhouettes" / cam.name / f"{f:06d}.png"
+            mask = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+            corners = cam.project(crate)[0].round().astype(np.int32)
+            cv2.fillConvexPoly(mask, cv2.convexHull(corners), 255)
+            cv2.imwrite(str(path), mask)
+    carved, hulls = [], []
+    carve, hull = Tracker._carve, Tracker.hull
+
+    def spy_carve(self, frame, prior=None, doubt=None):
+        carved.append((frame, prior is not None))
+        return carve(self, frame, prior, doubt)
+
+    def spy_hull(self, frame, prior=None):
+        hulls.append(frame)
+        return hull(self, frame, prior)
+
+    monkeypatch.setattr(Tracker, "_carve", spy_carve)
+    monkeypatch.setattr(Tracker, "hull", spy_hull)
+    options = TrackerOptions(calibration_seconds=0.4, calibration_frames=4, min_quality=0.75)
+    tracker = Tracker(Sequence(seq_path), options=options)
+    _, first, _ = tracker._subject(FRAMES, show_progress=False)
+    assert first == 0
+    tracked = {}
+    for f, with_prior in carved[1:]:  # the first frame, then the window in order, then the frames used
+        tracked.setdefault(f, with_prior)
+    assert [f for f in tracked if f < 12] == list(range(12)) and all(tracked[f] for f in range(1, 12)), carved
+    assert hulls and not set(hulls) & set(poor), hulls
+
+
 def test_a_search_ranks_at_the_resolution_of_the_stages():
     """The tracker's fit pairs every second point in its stages; its search scores
     candidates on as many."""

@@ -196,7 +196,9 @@ class TrackerOptions:
             chain_quality`) is at most this far below that chain's own reference. A whole
             body's quality barely moves when one arm is lost (an arm is a few per cent of
             the body); the arm's own falls from 0.7–0.95 to 0.2–0.55.
-        min_quality: a fit below this never stands: the frame fails.
+        min_quality: a fit below this never stands: the frame fails. In the first
+            seconds tracked for the subject's model (`refine_joints`) no frame fails,
+            but only the frames at or above it build the model.
         confirm_margin: when a fit is not good, the search from the hull says what the
             frame's hull can give: the tracked fit stands (good) unless the search found
             one better by more than this, which then stands (recovered); either way above
@@ -717,14 +719,21 @@ class Tracker:
         # The model is built from these poses: full fits (the girdle start's too, kept only
         # when it explains the hull better), and a search whenever one is not good. The
         # search fits its candidates as tracking does (it mostly confirms the tracked fit);
-        # a pose it finds is fitted again in full.
+        # a pose it finds is fitted again in full. No frame of the window fails: a failed
+        # frame leaves the next without the prior that guides its silhouettes, and the
+        # first model, built from one standing frame, explains a bend less well than the
+        # refined one will (d01 from colour frames fell under `min_quality` in its first
+        # bend and never came back, which left two thirds of the window unused and the
+        # knees placed from three frames; docs/accuracy.md). Only the frames whose fits
+        # reach `min_quality` build the model.
         strict = replace(self.options, fit=self.options.calibration_fit, quick_fit=None, girdle_fit=None,
                          recheck_margin=None, search=replace(self.options.search, girdle_tolerance=0.0),
-                         hull_doubt=None)
+                         hull_doubt=None, min_quality=0.0)
         state = TrackingState(subject.model, strict, subject.fit, search_fit=self.options.fit)
         for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
             self._track(state, window, frame)
-        good = [f for f in range(first, last) if not window.failed[f]]
+        stands = window.quality >= self.options.min_quality
+        good = [f for f in range(first, last) if not window.failed[f] and stands[f]]
         if len(good) < 2:
             return subject.model, first, subject.fit
         picks = _spread(good, self.options.calibration_frames)
