@@ -209,13 +209,14 @@ def test_the_calibration_window_keeps_its_prior_through_poor_fits(tmp_path, monk
     monkeypatch.setattr(Tracker, "_carve", spy_carve)
     monkeypatch.setattr(Tracker, "hull", spy_hull)
     options = TrackerOptions(calibration_seconds=0.4, calibration_frames=4, min_quality=0.75)
-    tracker = Tracker(Sequence(seq_path), options=options)
-    _, first, _ = tracker._subject(FRAMES, show_progress=False)
+    window = round(options.calibration_seconds * seq.fps)  # 12 frames, the crate's among them
+    _, first, _ = Tracker(seq, options=options)._subject(FRAMES, show_progress=False)
     assert first == 0
     tracked = {}
     for f, with_prior in carved[1:]:  # the first frame, then the window in order, then the frames used
         tracked.setdefault(f, with_prior)
-    assert [f for f in tracked if f < 12] == list(range(12)) and all(tracked[f] for f in range(1, 12)), carved
+    assert [f for f in tracked if f < window] == list(range(window)), carved
+    assert all(tracked[f] for f in range(1, window)), carved
     assert hulls and not set(hulls) & set(poor), hulls
 
 

@@ -55,7 +55,7 @@ from hullcap._silhouette import background_model
 from hullcap._subject import (SubjectOptions, bent_frames, build_subject, fitted_surface, place_model,
                               search_centres, with_hands)
 from hullcap._threads import ReadAhead, over_fits, over_views
-from hullcap._tracking_state import CARRIED_SEARCH, TrackingState
+from hullcap._tracking_state import TrackingState
 from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -905,10 +905,7 @@ class Tracker:
             self._relearn(arrays)
             result, start = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays), int(arrays["next_frame"])
             state = self._tracking_state(result.model)
-            if CARRIED_SEARCH in arrays:
-                state.take_back(arrays)
-            else:  # written before the state was carried
-                state.remember(result, start)
+            state.resume(arrays, result, start)
         except (*NPZ_ERRORS, TypeError) as e:
             raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
                                f"(resume=False) to start over") from None

@@ -89,6 +89,15 @@ class TrackingState:
         if done:
             self.anchor_pose = result.pose(done[0])
 
+    def resume(self, arrays: dict, result: TrackingResult, upto: int) -> None:
+        """The state of a checkpoint's `arrays`: what it carried (:meth:`take_back`), or,
+        from a checkpoint written before the state was carried, what its results up to
+        frame `upto` tell (:meth:`remember`)."""
+        if CARRIED_SEARCH in arrays:
+            self.take_back(arrays)
+        else:
+            self.remember(result, upto)
+
     def carried(self) -> dict:
         """What the state carries that the results do not hold, as a checkpoint's arrays
         (:meth:`take_back`): the references, the confirmed bar, the anchor and where the
