@@ -14,17 +14,23 @@ rate: K times as far between frames for the prediction and the guided masks.
 ``--models-from RUNS`` gives each run the subject's model of the same run in the folder
 ``RUNS`` (an earlier ``--out``) instead of building it, as ``hullcap track --model`` and
 every take of a batch after its calibration take do.
+``--jobs N`` tracks N runs at a time in processes of their own, each engine on its share
+of the cores: the same joints to the byte (a fit does not depend on its threads), the
+whole table sooner, but each run's frames/s then measure a machine it shared.
 
     .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface] [--every K]
-        [--models-from RUNS]
+        [--models-from RUNS] [--jobs N]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
+import os
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
 from pathlib import Path
 
@@ -51,7 +57,7 @@ class SurfaceTracker(Tracker):
 
 
 def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions,
-        every: int = 1, models_from: Path | None = None) -> dict:
+        every: int = 1, models_from: Path | None = None, show_progress: bool = True) -> dict:
     seq_path = devset.subsampled(devset.render(devset_dir, name), every)
     seq = Sequence(seq_path)
     run_dir = out / f"{seq_path.name}-{mode}"  # d01_bend-colour, d01_bend-every3-colour
@@ -63,7 +69,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     else:
         tracker = Tracker(seq, model=model, options=options)
     t0 = time.perf_counter()
-    result = tracker.run(run_dir, resume=False, show_progress=True, frames=frames)
+    result = tracker.run(run_dir, resume=False, show_progress=show_progress, frames=frames)
     seconds = time.perf_counter() - t0
     n = len(result.failed)
     want = truth.limb_lengths()
@@ -85,6 +91,29 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
             "fps": n / seconds, "fit_fps": n / max(result.seconds.get("fit", 0.0), 1e-9),
             "worst_frame": int(np.nanargmax(np.where(result.failed, -1, err))),
             "per_joint_mm": whole.per_joint_mm}
+
+
+def _run_sharing(threads: int, *args) -> dict:
+    """:func:`run` in a worker process whose engine uses `threads` threads."""
+    os.environ["HULLCAP_THREADS"] = str(threads)
+    return run(*args, show_progress=False)
+
+
+def run_all(jobs: list[tuple], workers: int) -> list[dict]:
+    """The rows of :func:`run` for each argument tuple of `jobs`, in their order,
+    `workers` runs at a time (each printed as it ends)."""
+    if workers <= 1:
+        rows = []
+        for args in jobs:
+            rows.append(run(*args))
+            print(table(rows[-1:]).splitlines()[-1], flush=True)
+        return rows
+    threads = max(1, (os.cpu_count() or 1) // workers)
+    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
+        futures = [pool.submit(_run_sharing, threads, *args) for args in jobs]
+        for future in futures:
+            print(table([future.result()]).splitlines()[-1], flush=True)
+        return [future.result() for future in futures]
 
 
 def table(rows: list[dict]) -> str:
@@ -114,19 +143,26 @@ def main():
                     help="build the subject model from the calibration pose only")
     ap.add_argument("--models-from", metavar="RUNS",
                     help="give each run the subject's model of the same run in RUNS (an earlier --out)")
+    ap.add_argument("--jobs", type=int, default=1, metavar="N",
+                    help="track N runs at a time (frames/s are then those of a shared machine)")
     args = ap.parse_args()
     devset_dir = devset.find(args.devset)
     if devset_dir is None:
         ap.error("the development set is not here: pass --devset or set HULLCAP_DEVSET")
     if args.every < 1:
         ap.error(f"--every must be 1 or more, got {args.every}")
-    rows, options = [], TrackerOptions(refine_joints=args.refine)
-    for name in args.only or devset.names(devset_dir):
-        for mode in args.silhouettes:
-            rows.append(run(devset_dir, name, mode, Path(args.out), args.frames, options, args.every,
-                            None if args.models_from is None else Path(args.models_from)))
-            print(table(rows[-1:]).splitlines()[-1], flush=True)
+    if args.jobs < 1:
+        ap.error(f"--jobs must be 1 or more, got {args.jobs}")
+    options = TrackerOptions(refine_joints=args.refine)
+    models_from = None if args.models_from is None else Path(args.models_from)
+    names = args.only or devset.names(devset_dir)
+    for name in names:  # rendered here, once, before any run reads it
+        devset.subsampled(devset.render(devset_dir, name), args.every)
+    rows = run_all([(devset_dir, name, mode, Path(args.out), args.frames, options, args.every, models_from)
+                    for name in names for mode in args.silhouettes], args.jobs)
     print("\n" + table(rows))
+    if args.jobs > 1:
+        print(f"({args.jobs} runs at a time: each run's frames/s measure a machine it shared)")
     print("\nper joint, raw (mm):")
     for r in rows:
         print(f"  {r['sequence']} / {r['silhouettes']}: " + ", ".join(f"{k} {v}" for k, v in r["per_joint_mm"].items()))

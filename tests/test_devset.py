@@ -36,6 +36,20 @@ def test_first_frames_of_a_development_sequence_are_tracked_near_the_truth(tmp_p
     assert len(lines) == 4 and lines[1].startswith("0,good,")
 
 
+@needs_the_set
+def test_runs_side_by_side_give_the_rows_and_joints_of_runs_one_after_another(tmp_path):
+    jobs = [(WHERE, "d04_run_4cam", mode, tmp_path / kind, 3, TrackerOptions(refine_joints=False))
+            for kind in ("serial", "shared") for mode in ("colour", "exact")]
+    serial, shared = bench_devset.run_all(jobs[:2], 1), bench_devset.run_all(jobs[2:], 2)
+    speeds = ("fps", "fit_fps")
+    assert [{k: v for k, v in row.items() if k not in speeds} for row in shared] == \
+        [{k: v for k, v in row.items() if k not in speeds} for row in serial]
+    for mode in ("colour", "exact"):
+        run = f"d04_run_4cam-{mode}"
+        assert (tmp_path / "shared" / run / "joints.csv").read_bytes() == \
+            (tmp_path / "serial" / run / "joints.csv").read_bytes()
+
+
 def test_a_subsampled_sequence_keeps_every_kth_frame_and_its_truth(tmp_path):
     seq = tmp_path / "walk"
     (seq / "background").mkdir(parents=True)
