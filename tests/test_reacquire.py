@@ -361,3 +361,51 @@ def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
     assert TrackingState(model, TrackerOptions(hinge_jump=None), None).hinges_held(predicted, fitted) is None
     with pytest.raises(OptionsError, match="hinge_jump"):
         TrackerOptions(hinge_jump=0.0)
+
+
+def test_a_jump_that_stood_keeps_the_limb_as_it_was_in_doubt_for_a_while():
+    """A hinge the free fit turned more than `hinge_jump` from both the prediction and
+    the last pose is doubted at its last angle for `hinge_doubt` frames, or until a fit
+    brings it back within `hinge_hold`; a prediction that overshot is not a jump."""
+    from hullcap._fitting import PoseParameters
+    from hullcap._tracking_state import TrackingState
+    from hullcap.errors import OptionsError
+
+    model = BodyModel.template()
+    names = list(model.dof_names)
+    elbow, knee = names.index("l_elbow_flexion"), names.index("r_knee_flexion")
+
+    def pose(**degrees):
+        theta = np.zeros(model.n_dofs)
+        for name, value in degrees.items():
+            theta[names.index(name)] = np.radians(value)
+        return PoseParameters(theta, np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
+
+    options = TrackerOptions(hinge_doubt=3)
+    state = TrackingState(model, options, None)
+    straight, folded = pose(), pose(l_elbow_flexion=150, r_knee_flexion=30)
+    assert state.as_before(folded) is None
+    # The prediction overshot a fast bend that the fit then met: no jump from the last pose.
+    state.doubt_jumps(pose(l_elbow_flexion=100), pose(l_elbow_flexion=40), pose(l_elbow_flexion=35))
+    assert state.doubted == {}
+    state.doubt_jumps(straight, straight, folded)
+    assert state.doubted == {elbow: (0.0, 3)}  # the knee turned 30°, within the jump
+    before = state.as_before(folded)
+    assert before.theta[elbow] == 0.0 and before.theta[knee] == folded.theta[knee]
+    limits, own = state.held_as_before().link_model.dof_limits, model.link_model.dof_limits
+    assert np.allclose(limits[elbow], [max(own[elbow][0], -options.hinge_hold), options.hinge_hold])
+    assert np.array_equal(np.delete(limits, elbow, axis=0), np.delete(own, elbow, axis=0))
+    state.age_doubts(folded)
+    state.age_doubts(None)  # a failed frame
+    assert state.doubted == {elbow: (0.0, 1)}
+    state.age_doubts(folded)
+    assert state.doubted == {}  # three frames passed
+    state.doubt_jumps(straight, straight, folded)
+    state.age_doubts(pose(l_elbow_flexion=5))  # back within the hold
+    assert state.doubted == {}
+    off = TrackingState(model, TrackerOptions(hinge_doubt=0), None)
+    off.doubt_jumps(straight, straight, folded)
+    assert off.doubted == {}
+    for bad in (-1, 2.5):
+        with pytest.raises(OptionsError, match="hinge_doubt"):
+            TrackerOptions(hinge_doubt=bad)

@@ -233,6 +233,18 @@ class TrackerOptions:
             (0.002 in the case measured, docs/accuracy.md "A limb the hull lost"); a limb
             that really moved that far, and that the hull shows, is explained far better
             free. ``None``: no check.
+        hinge_doubt: frames for which a hinge's jump that stood stays in doubt (15: half a
+            second at 30 frames/s; 0: none). A hinge that the free fit turned more than
+            `hinge_jump` from both the prediction and the last pose is doubted: in the
+            frames after it the guided masks are guided by the model drawn at the
+            prediction and, united with it, at the prediction with that hinge at its
+            angle in the last pose, and a fit from that pose, the hinge held within
+            `hinge_hold` of that angle, stands when it explains the hull better. A fold
+            made where one frame's hull lost the forearm (an arm the colour of the wall
+            behind it) is otherwise drawn into the next frame's guide, which then keeps
+            the forearm out of the masks where it really is: on the development set the
+            fold then lasted to the sequence's end (docs/accuracy.md, "A limb the hull
+            lost"). The doubt ends once the hinge is back within `hinge_hold`.
         reacquire: search from the hull when a fit is not good (else the frame fails).
         search: the search's options.
         motion_sigma: when set, a tracking fit (from the prediction, from the last pose,
@@ -310,6 +322,7 @@ class TrackerOptions:
     hinge_jump: float | None = math.radians(45.0)
     hinge_hold: float = math.radians(10.0)
     hinge_tolerance: float = 0.005
+    hinge_doubt: int = 15
     hand_reach: float | None = None
     wrists: bool = True
     read_ahead: int = 2
@@ -333,6 +346,8 @@ class TrackerOptions:
         if not ((self.hinge_jump is None or self.hinge_jump > 0) and self.hinge_hold >= 0
                 and self.hinge_tolerance >= 0):
             raise OptionsError("hinge_jump must be positive (or None), hinge_hold and hinge_tolerance >= 0")
+        if not (isinstance(self.hinge_doubt, int) and self.hinge_doubt >= 0):
+            raise OptionsError(f"hinge_doubt must be a whole number of frames >= 0, got {self.hinge_doubt!r}")
         if self.recheck_margin is not None and not self.recheck_margin >= 0:
             raise OptionsError(f"recheck_margin must be >= 0 (or None), got {self.recheck_margin}")
         if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
@@ -494,11 +509,18 @@ class Tracker:
                 self._guided = [None if b is None else GuidedSegmenter(b, self._guidance) for b in backgrounds]
         return self._guided
 
-    def _silhouettes(self, model: BodyModel, pose: PoseParameters) -> list[np.ndarray]:
-        """The model's (H, W) bool silhouette at `pose` in every view."""
-        v = model.pose(pose.theta, pose.root_rotation, pose.root_translation).vertices
+    def _silhouettes(self, model: BodyModel, pose: PoseParameters,
+                     also: PoseParameters | None = None) -> list[np.ndarray]:
+        """The model's (H, W) bool silhouette at `pose` in every view, united with its
+        silhouette at `also` when given."""
         faces, closed = model.faces, model.closed
-        return over_views(lambda cam: render_silhouette(cam, v, faces, closed=closed), self.sequence.cameras)
+        posed = [model.pose(p.theta, p.root_rotation, p.root_translation).vertices
+                 for p in (pose, also) if p is not None]
+
+        def drawn(cam):
+            silhouettes = [render_silhouette(cam, v, faces, closed=closed) for v in posed]
+            return silhouettes[0] if len(silhouettes) == 1 else np.logical_or.reduce(silhouettes)
+        return over_views(drawn, self.sequence.cameras)
 
     def _guides(self) -> bool:
         """Whether silhouettes are guided by the model."""
@@ -777,10 +799,12 @@ class Tracker:
     def _track(self, state: TrackingState, result: TrackingResult, frame: int) -> None:
         """Fit one frame, judge it, search when needed, and record it, by the state's
         options. Its silhouettes are guided by the predicted pose when the frame before
-        was tracked (after a failure, a wrong prediction would hide the person it missed)."""
+        was tracked (after a failure, a wrong prediction would hide the person it missed),
+        with each hinge in doubt drawn as it was too (``TrackerOptions.hinge_doubt``)."""
         starts = state.starts(result, frame)
         follows = frame > 0 and not result.failed[frame - 1]
-        prior = (state.guide, starts[0]) if starts and (follows or state.anchor_only(result, frame)) else None
+        before = state.as_before(starts[0]) if starts and follows else None
+        prior = (state.guide, starts[0], before) if starts and (follows or state.anchor_only(result, frame)) else None
         try:
             surface = self._carve(frame, prior, state.options.hull_doubt)[0]
         except ValueError as e:  # no usable view in this frame
@@ -815,8 +839,19 @@ class Tracker:
         if held is not None:
             fitted = self._fit_from(state, target, starts[0], first, held)
             iterations += fitted.iterations
-            if quality(fitted) >= quality(best) - options.hinge_tolerance:
+            jumped = quality(fitted) < quality(best) - options.hinge_tolerance
+            if not jumped:
                 best = fitted
+        if before is not None and best is not None:
+            # A hinge jumped in a frame before: the limb as it was, held so, stands when
+            # it explains the hull better.
+            fitted = self._fit_from(state, target, before, first, state.held_as_before())
+            iterations += fitted.iterations
+            if quality(fitted) > quality(best):
+                best = fitted
+        state.age_doubts(None if best is None else best.pose)
+        if held is not None and jumped:
+            state.doubt_jumps(starts[0], starts[-1], best.pose)
         bar = state.floor()  # what a fit of this frame must reach to stand without a search
         status = GOOD if best is not None and state.good(best) else FAILED
         passed = status == GOOD  # without a search

@@ -25,6 +25,7 @@ __all__ = ["TrackingState"]
 # A checkpoint's arrays of what the state carries (TrackingState.carried).
 CARRIED_REFERENCE, CARRIED_CHAIN_REFERENCE = "carried_reference", "carried_chain_reference"
 CARRIED_CONFIRMED, CARRIED_ANCHOR, CARRIED_SEARCH = "carried_confirmed", "carried_anchor", "carried_search"
+CARRIED_DOUBTED = "carried_doubted"
 
 
 class TrackingState:
@@ -52,6 +53,10 @@ class TrackingState:
         # A tracked fit no search could beat, as (quality, chain qualities): the bar of
         # the frames after it (TrackerOptions.recheck_margin).
         self.confirmed: tuple[float, np.ndarray] | None = None
+        # Hinges whose jump stood, as {DOF: (its angle in the last pose before the jump,
+        # frames left)}: the frames after it keep the limb as it was in view
+        # (TrackerOptions.hinge_doubt).
+        self.doubted: dict[int, tuple[float, int]] = {}
         if anchor is not None:
             self.remember_fit(anchor)
 
@@ -65,11 +70,49 @@ class TrackingState:
         jumped = [i for i in self.hinges if abs(fitted.theta[i] - predicted.theta[i]) > o.hinge_jump]
         if not jumped:
             return None
+        return self._held({i: predicted.theta[i] for i in jumped})
+
+    def _held(self, angles: dict[int, float]) -> BodyModel:
+        """The model with each DOF of `angles` limited to within ``hinge_hold`` of its
+        angle there."""
         own = self.model.link_model.dof_limits
         limits = own.copy()
-        for i in jumped:
-            limits[i] = np.clip(predicted.theta[i] + np.array([-o.hinge_hold, o.hinge_hold]), *own[i])
+        for i, angle in angles.items():
+            limits[i] = np.clip(angle + np.array([-self.options.hinge_hold, self.options.hinge_hold]), *own[i])
         return self.model.with_dof_limits(limits)
+
+    def doubt_jumps(self, predicted: PoseParameters, last: PoseParameters, fitted: PoseParameters) -> None:
+        """Remember the elbows and knees that `fitted` turned more than ``hinge_jump``
+        from both `predicted` and the `last` pose, the fit held near the prediction having
+        explained the hull less: for the next ``hinge_doubt`` frames the limb as it was in
+        the last pose stays in view."""
+        o = self.options
+        for i in self.hinges:
+            if o.hinge_doubt and min(abs(fitted.theta[i] - predicted.theta[i]),
+                                     abs(fitted.theta[i] - last.theta[i])) > o.hinge_jump:
+                self.doubted[i] = (float(last.theta[i]), o.hinge_doubt)
+
+    def as_before(self, pose: PoseParameters) -> PoseParameters | None:
+        """`pose` with each doubted hinge at its angle before the jump; ``None`` when no
+        hinge is doubted."""
+        if not self.doubted:
+            return None
+        theta = pose.theta.copy()
+        for i, (angle, _) in self.doubted.items():
+            theta[i] = angle
+        return PoseParameters(self.model.clamp(theta), pose.root_rotation, pose.root_translation)
+
+    def held_as_before(self) -> BodyModel:
+        """The model with each doubted hinge limited to within ``hinge_hold`` of its angle
+        before the jump."""
+        return self._held({i: angle for i, (angle, _) in self.doubted.items()})
+
+    def age_doubts(self, fitted: PoseParameters | None) -> None:
+        """A frame passed: a doubted hinge back within ``hinge_hold`` of its angle before
+        the jump, or doubted for ``hinge_doubt`` frames, is doubted no longer."""
+        hold = self.options.hinge_hold
+        self.doubted = {i: (angle, left - 1) for i, (angle, left) in self.doubted.items()
+                        if left > 1 and (fitted is None or abs(fitted.theta[i] - angle) > hold)}
 
     def remember_fit(self, fitted) -> None:
         """Take an accepted fit's quality, and its chains', into the references."""
@@ -100,8 +143,8 @@ class TrackingState:
 
     def carried(self) -> dict:
         """What the state carries that the results do not hold, as a checkpoint's arrays
-        (:meth:`take_back`): the references, the confirmed bar, the anchor and where the
-        search's random draws stand."""
+        (:meth:`take_back`): the references, the confirmed bar, the anchor, where the
+        search's random draws stand and the hinges in doubt."""
         anchor = self.anchor_pose
         return {
             CARRIED_REFERENCE: np.asarray(self.reference, float),
@@ -110,6 +153,8 @@ class TrackingState:
             CARRIED_ANCHOR: np.empty(0) if anchor is None else
             np.r_[anchor.theta, np.ravel(anchor.root_rotation), anchor.root_translation],
             CARRIED_SEARCH: np.asarray(self.search.random_state),
+            CARRIED_DOUBTED: np.array([(i, angle, left) for i, (angle, left) in sorted(self.doubted.items())],
+                                      float).reshape(-1, 3),
         }
 
     def take_back(self, arrays: dict) -> None:
@@ -125,6 +170,11 @@ class TrackingState:
         self.anchor_pose = PoseParameters(anchor[:n], anchor[n:n + 9].reshape(3, 3), anchor[n + 9:]) \
             if len(anchor) else None
         self.search.random_state = str(arrays[CARRIED_SEARCH])
+        doubted = np.asarray(arrays[CARRIED_DOUBTED], float).reshape(-1, 3) if CARRIED_DOUBTED in arrays \
+            else np.empty((0, 3))  # a checkpoint from before hinges were doubted
+        if not set(doubted[:, 0].astype(int)) <= set(self.hinges):
+            raise ValueError(f"doubted DOF {doubted[:, 0].astype(int).tolist()} are not all this model's hinges")
+        self.doubted = {int(i): (float(angle), int(left)) for i, angle, left in doubted}
         self._medians = None
 
     def anchor_only(self, result: TrackingResult, frame: int) -> bool:
