@@ -363,10 +363,11 @@ def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
         TrackerOptions(hinge_jump=0.0)
 
 
-def test_a_jump_that_stood_keeps_the_limb_as_it_was_in_doubt_for_a_while():
-    """A hinge the free fit turned more than `hinge_jump` from both the prediction and
-    the last pose is doubted at its last angle for `hinge_doubt` frames, or until a fit
-    brings it back within `hinge_hold`; a prediction that overshot is not a jump."""
+def test_an_elbow_that_turned_fast_keeps_the_forearm_as_it_was_in_doubt_for_a_while():
+    """An elbow a fit turned more than `hinge_jump` from its angle in a tracked frame of
+    the last `elbow_span` seconds is doubted at that frame's angle for `elbow_doubt`
+    seconds, or until a fit brings it back within `hinge_hold`; a turn spread over more
+    time is not doubted, nor one from a frame that failed, nor a knee's."""
     from hullcap._fitting import PoseParameters
     from hullcap._tracking_state import TrackingState
     from hullcap.errors import OptionsError
@@ -381,31 +382,44 @@ def test_a_jump_that_stood_keeps_the_limb_as_it_was_in_doubt_for_a_while():
             theta[names.index(name)] = np.radians(value)
         return PoseParameters(theta, np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
 
-    options = TrackerOptions(hinge_doubt=3)
+    def tracked(*elbows):
+        """A result at 30 frames/s whose frames so far bent the left elbow so (None: failed)."""
+        result = TrackingResult.empty(model, len(elbows) + 1, 30.0)
+        for f, degrees in enumerate(elbows):
+            if degrees is not None:
+                result.theta[f] = pose(l_elbow_flexion=degrees).theta
+                result.status[f] = GOOD
+        return result, len(elbows)
+
+    options = TrackerOptions(elbow_doubt=0.1, elbow_span=0.1)  # three frames each
     state = TrackingState(model, options, None)
-    straight, folded = pose(), pose(l_elbow_flexion=150, r_knee_flexion=30)
+    folded = pose(l_elbow_flexion=150, r_knee_flexion=100)
     assert state.as_before(folded) is None
-    # The prediction overshot a fast bend that the fit then met: no jump from the last pose.
-    state.doubt_jumps(pose(l_elbow_flexion=100), pose(l_elbow_flexion=40), pose(l_elbow_flexion=35))
-    assert state.doubted == {}
-    state.doubt_jumps(straight, straight, folded)
-    assert state.doubted == {elbow: (0.0, 3)}  # the knee turned 30°, within the jump
+    # 0° → 60° → 110° → 150°: a fold creeping 40–50° a frame, doubted from where it started.
+    state.doubt_turns(*tracked(0, 60, 110), folded)
+    assert state.doubted == {elbow: (0.0, 3)}  # not the knee, though it turned 100°
     before = state.as_before(folded)
     assert before.theta[elbow] == 0.0 and before.theta[knee] == folded.theta[knee]
     limits, own = state.held_as_before().link_model.dof_limits, model.link_model.dof_limits
     assert np.allclose(limits[elbow], [max(own[elbow][0], -options.hinge_hold), options.hinge_hold])
     assert np.array_equal(np.delete(limits, elbow, axis=0), np.delete(own, elbow, axis=0))
+    state.doubt_turns(*tracked(90, 90, 90), pose())
+    assert state.doubted[elbow][0] == 0.0  # a hinge in doubt keeps its angle
     state.age_doubts(folded)
     state.age_doubts(None)  # a failed frame
     assert state.doubted == {elbow: (0.0, 1)}
     state.age_doubts(folded)
-    assert state.doubted == {}  # three frames passed
-    state.doubt_jumps(straight, straight, folded)
+    assert state.doubted == {}  # 0.1 s passed
+    state.doubt_turns(*tracked(0, 0, 0), folded)
     state.age_doubts(pose(l_elbow_flexion=5))  # back within the hold
     assert state.doubted == {}
-    off = TrackingState(model, TrackerOptions(hinge_doubt=0), None)
-    off.doubt_jumps(straight, straight, folded)
+    state.doubt_turns(*tracked(0, 10, 20, 30, 40), pose(l_elbow_flexion=50))  # 10° a frame: 30° in the span
+    assert state.doubted == {}
+    state.doubt_turns(*tracked(0, 0, None, None, None), folded)  # nothing tracked in the span
+    assert state.doubted == {}
+    off = TrackingState(model, TrackerOptions(elbow_doubt=0), None)
+    off.doubt_turns(*tracked(0, 0, 0), folded)
     assert off.doubted == {}
-    for bad in (-1, 2.5):
-        with pytest.raises(OptionsError, match="hinge_doubt"):
-            TrackerOptions(hinge_doubt=bad)
+    for bad in ({"elbow_doubt": -1}, {"elbow_span": 0}):
+        with pytest.raises(OptionsError, match="elbow_doubt"):
+            TrackerOptions(**bad)

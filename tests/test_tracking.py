@@ -185,9 +185,9 @@ def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(sh
     assert np.array_equal(with_hands(model.with_wrists(), 0.6).vertices, with_hands(model, 0.6).vertices)
 
 
-def test_a_doubted_hinge_guides_the_masks_with_the_limb_both_ways(short_sequence):
-    """With a hinge in doubt the prediction is drawn with the limb as predicted and as it
-    was, united: the silhouettes of both poses, pixel for pixel."""
+def test_an_elbow_in_doubt_guides_the_masks_with_the_forearm_both_ways(short_sequence):
+    """With an elbow in doubt the prediction is drawn with the forearm as predicted and
+    as it was, united: the silhouettes of both poses, pixel for pixel."""
     seq, model = Sequence(short_sequence), BodyModel.template()
     tracker = Tracker(seq)
     theta = np.zeros(model.n_dofs)
@@ -276,7 +276,7 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
 
 def test_the_state_a_checkpoint_carries_comes_back_whole(model):
     # The references, the confirmed bar, the anchor, the search's random draws and the
-    # hinges in doubt: what the results alone do not say, through a checkpoint's arrays
+    # elbows in doubt: what the results alone do not say, through a checkpoint's arrays
     # and back.
     import io
 
@@ -295,7 +295,7 @@ def test_the_state_a_checkpoint_carries_comes_back_whole(model):
     state.anchor_pose = PoseParameters(rng.normal(0, 0.1, len(model.dof_names)), np.eye(3)[[1, 0, 2]] * [1, 1, -1],
                                        np.array([0.1, -0.2, 0.9]))
     state.search._rng.uniform(size=5)  # draws move the search's generator on
-    state.doubted = {state.hinges[0]: (0.25, 7), state.hinges[2]: (1.5, 2)}
+    state.doubted = {state.elbows[0]: (0.25, 7), state.elbows[1]: (1.5, 2)}
     buf = io.BytesIO()
     np.savez(buf, **state.carried())
     buf.seek(0)
@@ -309,7 +309,7 @@ def test_the_state_a_checkpoint_carries_comes_back_whole(model):
     assert np.array_equal(back.search._rng.uniform(size=3), state.search._rng.uniform(size=3))
     assert back.doubted == state.doubted
     # Nothing confirmed, no anchor and no doubt yet come back as nothing; so does the doubt
-    # of a checkpoint written before hinges were doubted.
+    # of a checkpoint written before elbows were doubted.
     empty = state_of()
     empty.take_back(state_of().carried())
     assert empty.confirmed is None and empty.anchor_pose is None and not empty.reference and not empty.doubted
@@ -318,9 +318,9 @@ def test_the_state_a_checkpoint_carries_comes_back_whole(model):
     assert not empty.doubted
     with pytest.raises(ValueError, match="an anchor of 5 numbers"):
         state_of().take_back({**state.carried(), "carried_anchor": np.zeros(5)})
-    not_a_hinge = [i for i in range(len(model.dof_names)) if i not in state.hinges][0]
-    with pytest.raises(ValueError, match="hinges"):
-        state_of().take_back({**state.carried(), "carried_doubted": np.array([[not_a_hinge, 0.1, 3]])})
+    knee = [i for i in state.hinges if i not in state.elbows][0]
+    with pytest.raises(ValueError, match="elbows"):
+        state_of().take_back({**state.carried(), "carried_doubted": np.array([[knee, 0.1, 3]])})
 
 
 def test_a_given_model_teaches_the_guided_masks_colours_as_it_goes(short_sequence, tmp_path, monkeypatch):

@@ -233,18 +233,23 @@ class TrackerOptions:
             (0.002 in the case measured, docs/accuracy.md "A limb the hull lost"); a limb
             that really moved that far, and that the hull shows, is explained far better
             free. ``None``: no check.
-        hinge_doubt: frames for which a hinge's jump that stood stays in doubt (15: half a
-            second at 30 frames/s; 0: none). A hinge that the free fit turned more than
-            `hinge_jump` from both the prediction and the last pose is doubted: in the
-            frames after it the guided masks are guided by the model drawn at the
-            prediction and, united with it, at the prediction with that hinge at its
-            angle in the last pose, and a fit from that pose, the hinge held within
-            `hinge_hold` of that angle, stands when it explains the hull better. A fold
-            made where one frame's hull lost the forearm (an arm the colour of the wall
-            behind it) is otherwise drawn into the next frame's guide, which then keeps
-            the forearm out of the masks where it really is: on the development set the
-            fold then lasted to the sequence's end (docs/accuracy.md, "A limb the hull
-            lost"). The doubt ends once the hinge is back within `hinge_hold`.
+        elbow_doubt, elbow_span: seconds for which an elbow that turned fast stays in
+            doubt (0: never), and the time within which turning more than `hinge_jump` is
+            fast. A fit whose elbow lies more than `hinge_jump` from its angle in a tracked
+            frame of the last `elbow_span` seconds puts that elbow in doubt at that
+            frame's angle: in the frames after it the guided masks are guided by the model
+            drawn at the prediction and, united with it, at the prediction with the elbow
+            at that angle, and a fit from that pose, the elbow held within `hinge_hold` of
+            the angle, stands when it explains the hull better. The doubt ends when a fit
+            brings the elbow back within `hinge_hold`. A forearm folded where a frame's
+            hull lost it (an arm the colour of the wall behind it), at once or over a few
+            frames, is otherwise drawn into the next frame's guide, which keeps the real
+            forearm out of the masks: on the development set such folds lasted to the
+            sequence's end (docs/accuracy.md, "A limb the hull lost"). 0.1 s is three
+            frames at 30 frames/s; 45° in that time (450°/s) a fold exceeds, and so do
+            fast arms, for which the fit from the forearm as it was explains the hull
+            worse and is not kept. Knees are left out: a running knee turns that fast at
+            every stride, and a shin is seldom lost from the hull.
         reacquire: search from the hull when a fit is not good (else the frame fails).
         search: the search's options.
         motion_sigma: when set, a tracking fit (from the prediction, from the last pose,
@@ -322,7 +327,8 @@ class TrackerOptions:
     hinge_jump: float | None = math.radians(45.0)
     hinge_hold: float = math.radians(10.0)
     hinge_tolerance: float = 0.005
-    hinge_doubt: int = 15
+    elbow_doubt: float = 0.5
+    elbow_span: float = 0.1
     hand_reach: float | None = None
     wrists: bool = True
     read_ahead: int = 2
@@ -346,8 +352,9 @@ class TrackerOptions:
         if not ((self.hinge_jump is None or self.hinge_jump > 0) and self.hinge_hold >= 0
                 and self.hinge_tolerance >= 0):
             raise OptionsError("hinge_jump must be positive (or None), hinge_hold and hinge_tolerance >= 0")
-        if not (isinstance(self.hinge_doubt, int) and self.hinge_doubt >= 0):
-            raise OptionsError(f"hinge_doubt must be a whole number of frames >= 0, got {self.hinge_doubt!r}")
+        if not (self.elbow_doubt >= 0 and self.elbow_span > 0):
+            raise OptionsError(f"elbow_doubt must be >= 0 and elbow_span > 0 (seconds), got {self.elbow_doubt} "
+                               f"and {self.elbow_span}")
         if self.recheck_margin is not None and not self.recheck_margin >= 0:
             raise OptionsError(f"recheck_margin must be >= 0 (or None), got {self.recheck_margin}")
         if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
@@ -800,7 +807,7 @@ class Tracker:
         """Fit one frame, judge it, search when needed, and record it, by the state's
         options. Its silhouettes are guided by the predicted pose when the frame before
         was tracked (after a failure, a wrong prediction would hide the person it missed),
-        with each hinge in doubt drawn as it was too (``TrackerOptions.hinge_doubt``)."""
+        with each elbow in doubt drawn as it was too (``TrackerOptions.elbow_doubt``)."""
         starts = state.starts(result, frame)
         follows = frame > 0 and not result.failed[frame - 1]
         before = state.as_before(starts[0]) if starts and follows else None
@@ -839,19 +846,18 @@ class Tracker:
         if held is not None:
             fitted = self._fit_from(state, target, starts[0], first, held)
             iterations += fitted.iterations
-            jumped = quality(fitted) < quality(best) - options.hinge_tolerance
-            if not jumped:
+            if quality(fitted) >= quality(best) - options.hinge_tolerance:
                 best = fitted
         if before is not None and best is not None:
-            # A hinge jumped in a frame before: the limb as it was, held so, stands when
-            # it explains the hull better.
+            # An elbow turned fast in the frames before: the forearm as it was, held so,
+            # stands when it explains the hull better.
             fitted = self._fit_from(state, target, before, first, state.held_as_before())
             iterations += fitted.iterations
             if quality(fitted) > quality(best):
                 best = fitted
         state.age_doubts(None if best is None else best.pose)
-        if held is not None and jumped:
-            state.doubt_jumps(starts[0], starts[-1], best.pose)
+        if best is not None:
+            state.doubt_turns(result, frame, best.pose)
         bar = state.floor()  # what a fit of this frame must reach to stand without a search
         status = GOOD if best is not None and state.good(best) else FAILED
         passed = status == GOOD  # without a search

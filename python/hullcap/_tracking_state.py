@@ -44,6 +44,7 @@ class TrackingState:
         self.refit_found = search_fit is not None
         self.chains = chain_links(model)
         self.hinges = [i for i, name in enumerate(model.dof_names) if name.endswith(("elbow_flexion", "knee_flexion"))]
+        self.elbows = [i for i, name in enumerate(model.dof_names) if name.endswith("elbow_flexion")]
         # The limbs are judged on their own; the trunk, most of the body, by the whole.
         self.limbs = [c for c, name in enumerate(CHAINS) if name != "trunk"]
         self.reference: deque = deque(maxlen=options.quality_window)
@@ -53,9 +54,8 @@ class TrackingState:
         # A tracked fit no search could beat, as (quality, chain qualities): the bar of
         # the frames after it (TrackerOptions.recheck_margin).
         self.confirmed: tuple[float, np.ndarray] | None = None
-        # Hinges whose jump stood, as {DOF: (its angle in the last pose before the jump,
-        # frames left)}: the frames after it keep the limb as it was in view
-        # (TrackerOptions.hinge_doubt).
+        # Elbows that turned fast, as {DOF: (the angle they turned from, frames left)}: the
+        # frames after it keep the forearm as it was in view (TrackerOptions.elbow_doubt).
         self.doubted: dict[int, tuple[float, int]] = {}
         if anchor is not None:
             self.remember_fit(anchor)
@@ -81,20 +81,27 @@ class TrackingState:
             limits[i] = np.clip(angle + np.array([-self.options.hinge_hold, self.options.hinge_hold]), *own[i])
         return self.model.with_dof_limits(limits)
 
-    def doubt_jumps(self, predicted: PoseParameters, last: PoseParameters, fitted: PoseParameters) -> None:
-        """Remember the elbows and knees that `fitted` turned more than ``hinge_jump``
-        from both `predicted` and the `last` pose, the fit held near the prediction having
-        explained the hull less: for the next ``hinge_doubt`` frames the limb as it was in
-        the last pose stays in view."""
+    def doubt_turns(self, result: TrackingResult, frame: int, fitted: PoseParameters) -> None:
+        """Put in doubt each elbow that `fitted` turned more than ``hinge_jump`` from
+        where it was in a tracked frame of the last ``elbow_span`` seconds, at the angle
+        of that frame furthest from the fit: for the next ``elbow_doubt`` seconds the
+        forearm as it was stays in view. An elbow already in doubt keeps its angle."""
         o = self.options
-        for i in self.hinges:
-            if o.hinge_doubt and min(abs(fitted.theta[i] - predicted.theta[i]),
-                                     abs(fitted.theta[i] - last.theta[i])) > o.hinge_jump:
-                self.doubted[i] = (float(last.theta[i]), o.hinge_doubt)
+        if not o.elbow_doubt or o.hinge_jump is None:
+            return
+        frames = [f for f in range(max(0, frame - max(1, round(o.elbow_span * result.fps))), frame)
+                  if not result.failed[f]]
+        for i in self.elbows:
+            if i in self.doubted or not frames:
+                continue
+            angles = result.theta[frames, i]
+            far = float(angles[np.argmax(np.abs(angles - fitted.theta[i]))])
+            if abs(fitted.theta[i] - far) > o.hinge_jump:
+                self.doubted[i] = (far, max(1, round(o.elbow_doubt * result.fps)))
 
     def as_before(self, pose: PoseParameters) -> PoseParameters | None:
-        """`pose` with each doubted hinge at its angle before the jump; ``None`` when no
-        hinge is doubted."""
+        """`pose` with each elbow in doubt at its angle before the turn; ``None`` when no
+        elbow is in doubt."""
         if not self.doubted:
             return None
         theta = pose.theta.copy()
@@ -103,13 +110,13 @@ class TrackingState:
         return PoseParameters(self.model.clamp(theta), pose.root_rotation, pose.root_translation)
 
     def held_as_before(self) -> BodyModel:
-        """The model with each doubted hinge limited to within ``hinge_hold`` of its angle
-        before the jump."""
+        """The model with each elbow in doubt limited to within ``hinge_hold`` of its
+        angle before the turn."""
         return self._held({i: angle for i, (angle, _) in self.doubted.items()})
 
     def age_doubts(self, fitted: PoseParameters | None) -> None:
-        """A frame passed: a doubted hinge back within ``hinge_hold`` of its angle before
-        the jump, or doubted for ``hinge_doubt`` frames, is doubted no longer."""
+        """A frame passed: an elbow back within ``hinge_hold`` of its angle before the
+        turn, or in doubt for ``elbow_doubt`` seconds, is in doubt no longer."""
         hold = self.options.hinge_hold
         self.doubted = {i: (angle, left - 1) for i, (angle, left) in self.doubted.items()
                         if left > 1 and (fitted is None or abs(fitted.theta[i] - angle) > hold)}
@@ -144,7 +151,7 @@ class TrackingState:
     def carried(self) -> dict:
         """What the state carries that the results do not hold, as a checkpoint's arrays
         (:meth:`take_back`): the references, the confirmed bar, the anchor, where the
-        search's random draws stand and the hinges in doubt."""
+        search's random draws stand and the elbows in doubt."""
         anchor = self.anchor_pose
         return {
             CARRIED_REFERENCE: np.asarray(self.reference, float),
@@ -171,9 +178,9 @@ class TrackingState:
             if len(anchor) else None
         self.search.random_state = str(arrays[CARRIED_SEARCH])
         doubted = np.asarray(arrays[CARRIED_DOUBTED], float).reshape(-1, 3) if CARRIED_DOUBTED in arrays \
-            else np.empty((0, 3))  # a checkpoint from before hinges were doubted
-        if not set(doubted[:, 0].astype(int)) <= set(self.hinges):
-            raise ValueError(f"doubted DOF {doubted[:, 0].astype(int).tolist()} are not all this model's hinges")
+            else np.empty((0, 3))  # a checkpoint from before elbows were doubted
+        if not set(doubted[:, 0].astype(int)) <= set(self.elbows):
+            raise ValueError(f"doubted DOF {doubted[:, 0].astype(int).tolist()} are not all this model's elbows")
         self.doubted = {int(i): (float(angle), int(left)) for i, angle, left in doubted}
         self._medians = None
 
