@@ -240,7 +240,9 @@ class TrackerOptions:
             frame's angle: in the frames after it the guided masks are guided by the model
             drawn at the prediction and, united with it, at the prediction with the elbow
             at that angle, and a fit from that pose, the elbow held within `hinge_hold` of
-            the angle, stands when it explains the hull better. The doubt ends when a fit
+            the angle, stands when it explains the hull better by more than
+            `hinge_tolerance` (the guide drawn both ways favours the forearm as it was, and
+            a real bend must not be held back by it). The doubt ends when a fit
             brings the elbow back within `hinge_hold`. A forearm folded where a frame's
             hull lost it (an arm the colour of the wall behind it), at once or over a few
             frames, is otherwise drawn into the next frame's guide, which keeps the real
@@ -850,10 +852,10 @@ class Tracker:
                 best = fitted
         if before is not None and best is not None:
             # An elbow turned fast in the frames before: the forearm as it was, held so,
-            # stands when it explains the hull better.
+            # stands when it explains the hull clearly better.
             fitted = self._fit_from(state, target, before, first, state.held_as_before())
             iterations += fitted.iterations
-            if quality(fitted) > quality(best):
+            if quality(fitted) > quality(best) + options.hinge_tolerance:
                 best = fitted
         state.age_doubts(None if best is None else best.pose)
         if best is not None:
