@@ -101,19 +101,19 @@ def _run_sharing(threads: int, *args) -> dict:
 
 def run_all(jobs: list[tuple], workers: int) -> list[dict]:
     """The rows of :func:`run` for each argument tuple of `jobs`, in their order,
-    `workers` runs at a time (each printed as it ends)."""
+    `workers` runs at a time (each printed as it is taken)."""
     if workers <= 1:
-        rows = []
-        for args in jobs:
-            rows.append(run(*args))
-            print(table(rows[-1:]).splitlines()[-1], flush=True)
-        return rows
+        return [_printed(run(*args)) for args in jobs]
     threads = max(1, (os.cpu_count() or 1) // workers)
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn")) as pool:
         futures = [pool.submit(_run_sharing, threads, *args) for args in jobs]
-        for future in futures:
-            print(table([future.result()]).splitlines()[-1], flush=True)
-        return [future.result() for future in futures]
+        return [_printed(future.result()) for future in futures]
+
+
+def _printed(row: dict) -> dict:
+    """`row`, once its line of the table is printed."""
+    print(table([row]).splitlines()[-1], flush=True)
+    return row
 
 
 def table(rows: list[dict]) -> str:

@@ -404,7 +404,7 @@ def test_an_elbow_that_turned_fast_keeps_the_forearm_as_it_was_in_doubt_for_a_wh
     assert np.allclose(limits[elbow], [max(own[elbow][0], -options.hinge_hold), options.hinge_hold])
     assert np.array_equal(np.delete(limits, elbow, axis=0), np.delete(own, elbow, axis=0))
     state.doubt_turns(*tracked(90, 90, 90), pose())
-    assert state.doubted[elbow][0] == 0.0  # a hinge in doubt keeps its angle
+    assert state.doubted[elbow][0] == 0.0  # an elbow in doubt keeps its angle
     state.age_doubts(folded)
     state.age_doubts(None)  # a failed frame
     assert state.doubted == {elbow: (0.0, 1)}

@@ -91,8 +91,10 @@ class TrackingState:
             return
         frames = [f for f in range(max(0, frame - max(1, round(o.elbow_span * result.fps))), frame)
                   if not result.failed[f]]
+        if not frames:
+            return
         for i in self.elbows:
-            if i in self.doubted or not frames:
+            if i in self.doubted:
                 continue
             angles = result.theta[frames, i]
             far = float(angles[np.argmax(np.abs(angles - fitted.theta[i]))])
