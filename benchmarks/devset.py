@@ -5,7 +5,10 @@ scorer (``render_packed.py``, ``score.py``, ``roles.json``). This module finds i
 a sequence once into an ignored cache folder (``data/devset/``), and scores a tracking
 result against its ground truth the way its ``score.py`` does: per joint, the raw error
 (MPJPE) and the error once each joint's constant offset over the frames is removed (what
-differing joint-centre conventions of two rigs alone would explain).
+differing joint-centre conventions of two rigs alone would explain). It also removes
+each joint's constant offset in the body's own frame (:meth:`Truth.body_frames`): a
+convention is a place inside the body, and where the person turns round (d02 turns by
+180°) a constant offset in the body turns with it and is no constant in the world.
 
 Where the set is: ``--devset PATH``, else ``$HULLCAP_DEVSET``, else ``../shared/devset``
 beside the repository.
@@ -110,6 +113,20 @@ class Truth:
     def limb_lengths(self) -> dict[str, float]:
         return _limb_lengths(self.names, self.positions)
 
+    def body_frames(self) -> np.ndarray:
+        """(F, 3, 3) the body's frame in each frame, its axes as columns: x from the right
+        hip to the left, z from the pelvis towards the neck (made square to x), y = z × x
+        (the body's back)."""
+        at = {name: self.positions[:, self.names.index(name)] for name in ("pelvis", "neck", "l_hip", "r_hip")}
+        x = _unit(at["l_hip"] - at["r_hip"])
+        up = at["neck"] - at["pelvis"]
+        z = _unit(up - np.sum(up * x, axis=1, keepdims=True) * x)
+        return np.stack([x, np.cross(z, x), z], axis=2)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
 
 def _limb_lengths(names, positions) -> dict[str, float]:
     """Median over frames of each limb's length, left and right averaged (metres)."""
@@ -176,19 +193,29 @@ class Score:
     lost: int
     mpjpe_mm: float
     mpjpe_offset_removed_mm: float
+    mpjpe_body_offset_removed_mm: float
     per_joint_mm: dict[str, float]
 
 
 def score(truth: Truth, joint_names, joints: np.ndarray, failed: np.ndarray,
           frames: slice = slice(None)) -> Score:
-    """Raw and offset-removed joint errors over `frames` (as the set's ``score.py``):
-    `joints` (F, J, 3) under `joint_names`, `failed` (F,) frames count as lost."""
+    """Raw and offset-removed joint errors over `frames` (as the set's ``score.py``), and
+    offset-removed in the body's frame (the errors turned into :meth:`Truth.body_frames`
+    before each joint's mean is removed): `joints` (F, J, 3) under `joint_names`,
+    `failed` (F,) frames count as lost."""
     idx = [list(joint_names).index(n) for n in truth.names]
     got = np.asarray(joints, float)[frames][:, idx]
     want = truth.positions[: len(joints)][frames]
     lost = np.asarray(failed, bool)[frames]
     err = np.where(lost[:, None, None], np.nan, got - want)
     raw = np.nanmean(np.linalg.norm(err, axis=2), axis=0) * 1e3
-    offset_removed = np.nanmean(np.linalg.norm(err - np.nanmean(err, axis=0), axis=2), axis=0) * 1e3
+    offset_removed = _offset_removed(err)
+    in_body = np.einsum("fdb,fjd->fjb", truth.body_frames()[: len(joints)][frames], err)
     return Score(len(lost), int(lost.sum()), float(raw.mean()), float(offset_removed.mean()),
-                 dict(zip(truth.names, raw.round(1).tolist())))
+                 float(_offset_removed(in_body).mean()), dict(zip(truth.names, raw.round(1).tolist())))
+
+
+def _offset_removed(err: np.ndarray) -> np.ndarray:
+    """Per joint, the mean length (mm) of the errors (F, J, 3; metres, NaN where lost)
+    once their mean over the frames is removed."""
+    return np.nanmean(np.linalg.norm(err - np.nanmean(err, axis=0), axis=2), axis=0) * 1e3
