@@ -13,7 +13,7 @@ from hullcap._results import GOOD
 from hullcap._sequence import Sequence
 from hullcap._subject import with_hands
 from hullcap._synth import synthesize
-from hullcap._tracking import quick_fit_options
+from hullcap._tracking_options import quick_fit_options
 
 
 def turn(yaw):

@@ -8,7 +8,6 @@ from __future__ import annotations
 import warnings
 from collections import deque
 from itertools import islice
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,9 +15,7 @@ from hullcap._body import BodyModel
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, quality
 from hullcap._reacquire import CHAINS, PoseSearch, chain_links, chain_quality
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult
-
-if TYPE_CHECKING:
-    from hullcap._tracking import TrackerOptions
+from hullcap._tracking_options import TrackerOptions
 
 __all__ = ["TrackingState"]
 
