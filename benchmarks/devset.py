@@ -6,7 +6,7 @@ a sequence once into an ignored cache folder (``data/devset/``), and scores a tr
 result against its ground truth the way its ``score.py`` does: per joint, the raw error
 (MPJPE) and the error once each joint's constant offset over the frames is removed (what
 differing joint-centre conventions of two rigs alone would explain). It also removes
-each joint's constant offset in the body's own frame (:meth:`Truth.body_frames`): a
+each joint's constant offset in the body's own frame (:mod:`hullcap._compare`): a
 convention is a place inside the body, and where the person turns round (d02 turns by
 180°) a constant offset in the body turns with it and is no constant in the world.
 
@@ -24,6 +24,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from hullcap._compare import body_frames, offset_removed_mm
 
 REPO = Path(__file__).resolve().parent.parent
 CACHE = REPO / "data" / "devset"
@@ -114,18 +116,8 @@ class Truth:
         return _limb_lengths(self.names, self.positions)
 
     def body_frames(self) -> np.ndarray:
-        """(F, 3, 3) the body's frame in each frame, its axes as columns: x from the right
-        hip to the left, z from the pelvis towards the neck (made square to x), y = z × x
-        (the body's back)."""
-        at = {name: self.positions[:, self.names.index(name)] for name in ("pelvis", "neck", "l_hip", "r_hip")}
-        x = _unit(at["l_hip"] - at["r_hip"])
-        up = at["neck"] - at["pelvis"]
-        z = _unit(up - np.sum(up * x, axis=1, keepdims=True) * x)
-        return np.stack([x, np.cross(z, x), z], axis=2)
-
-
-def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+        """(F, 3, 3) the body's frame in each frame (:func:`hullcap._compare.body_frames`)."""
+        return body_frames(self.names, self.positions)
 
 
 def _limb_lengths(names, positions) -> dict[str, float]:
@@ -209,13 +201,6 @@ def score(truth: Truth, joint_names, joints: np.ndarray, failed: np.ndarray,
     lost = np.asarray(failed, bool)[frames]
     err = np.where(lost[:, None, None], np.nan, got - want)
     raw = np.nanmean(np.linalg.norm(err, axis=2), axis=0) * 1e3
-    offset_removed = _offset_removed(err)
     in_body = np.einsum("fdb,fjd->fjb", truth.body_frames()[: len(joints)][frames], err)
-    return Score(len(lost), int(lost.sum()), float(raw.mean()), float(offset_removed.mean()),
-                 float(_offset_removed(in_body).mean()), dict(zip(truth.names, raw.round(1).tolist())))
-
-
-def _offset_removed(err: np.ndarray) -> np.ndarray:
-    """Per joint, the mean length (mm) of the errors (F, J, 3; metres, NaN where lost)
-    once their mean over the frames is removed."""
-    return np.nanmean(np.linalg.norm(err - np.nanmean(err, axis=0), axis=2), axis=0) * 1e3
+    return Score(len(lost), int(lost.sum()), float(raw.mean()), float(offset_removed_mm(err).mean()),
+                 float(offset_removed_mm(in_body).mean()), dict(zip(truth.names, raw.round(1).tolist())))

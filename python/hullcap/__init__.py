@@ -11,6 +11,7 @@ argument at fault.
 from hullcap import errors
 from hullcap._body import BodyModel, Pose
 from hullcap._cameras import Camera, Cameras, ring
+from hullcap._compare import Comparison, compare_run
 from hullcap._engine import NormalKDTree, __version__, skin_weights
 from hullcap._evaluate import Accuracy, accuracy
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, fit
@@ -33,6 +34,7 @@ __all__ = [
     "BodyModel",
     "Camera",
     "Cameras",
+    "Comparison",
     "FitOptions",
     "FitResult",
     "GuidedOptions",
@@ -55,6 +57,7 @@ __all__ = [
     "accuracy",
     "background_model",
     "build_subject",
+    "compare_run",
     "errors",
     "fit",
     "load_result",

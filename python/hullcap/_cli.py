@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import tempfile
 import time
@@ -107,6 +108,20 @@ def _export(args) -> int:
     else:
         write_joints_csv(target, result)
     print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
+    return 0
+
+
+def _compare(args) -> int:
+    from hullcap._compare import compare_run
+
+    comparison = compare_run(args.out, args.reference, names=args.names, shift=args.shift, up=args.up)
+    print(f"{args.out} against {args.reference}:")
+    print(comparison.table())
+    if args.json:
+        from hullcap._files import atomic_write
+
+        atomic_write(Path(args.json), json.dumps(comparison.to_dict(), indent=1).encode())
+        print(f"{args.json}: written")
     return 0
 
 
@@ -278,6 +293,24 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
     _output_options(e)
     e.set_defaults(run=_export)
+
+    m = sub.add_parser("compare", help="compare a run's joints with a reference (TRC, C3D or another run)",
+                       description=(
+        "Compare a finished run's joint centres with a reference's (a marker system's or another tracker's, "
+        "as TRC or C3D, or another run's results folder), frame by frame at the reference's times: per joint "
+        "the raw error, the error once its constant offset is removed in the world, and once removed in the "
+        "reference's own body frame (from its pelvis, neck and hips), which a difference of joint-centre "
+        "conventions needs when the person turns round. Both must be in the same world (one calibration)."))
+    m.add_argument("out", help="the results folder of a `hullcap track` run")
+    m.add_argument("reference", help="the reference: a .trc, a .c3d (needs ezc3d) or another run's results folder")
+    m.add_argument("--names", metavar="JSON",
+                   help="a JSON object mapping our joint names to the reference's (default: the names both have)")
+    m.add_argument("--shift", type=float, default=0.0, metavar="SECONDS",
+                   help="added to the reference's times, for clocks that do not agree (default 0)")
+    m.add_argument("--up", choices=["y", "z"], default="y",
+                   help="trc: the reference's up axis (default y, OpenSim's; z: our world)")
+    m.add_argument("--json", help="also write the figures here as JSON")
+    m.set_defaults(run=_compare)
     return ap
 
 

@@ -7,6 +7,8 @@ marker and its X/Y/Z columns, then one row per frame starting with the frame num
 (from 1) and the time in seconds. Each canonical joint is a marker named as in
 ``joints.csv``. OpenSim's world is y up, so by default our (x, y, z) is written as
 (x, z, −y); ``up="z"`` keeps our world. Failed frames are written as ``NaN`` (missing).
+:func:`read_trc` reads such files back, and those of other tools (a missing marker as
+``NaN`` or an empty field).
 """
 
 from __future__ import annotations
@@ -19,9 +21,12 @@ from hullcap._files import atomic_write
 from hullcap.errors import OptionsError, ResultsError
 from hullcap.export._motion import change_of_axes
 
-__all__ = ["write_trc"]
+__all__ = ["read_trc", "write_trc"]
 
 UNITS = {"mm": 1000.0, "m": 1.0}
+"""Units :func:`write_trc` writes, as values per metre."""
+READ_UNITS = {"mm": 1000.0, "cm": 100.0, "m": 1.0}
+"""Units :func:`read_trc` reads, as values per metre."""
 
 
 def write_trc(path, joint_names, joints, fps: float, *, units: str = "mm", up: str = "y") -> None:
@@ -47,3 +52,40 @@ def write_trc(path, joint_names, joints, fps: float, *, units: str = "mm", up: s
         values = "\t".join("NaN" if np.isnan(v) else f"{v:.6f}" for v in points[f].ravel())
         lines.append(f"{f + 1}\t{f / fps:.6f}\t{values}")
     atomic_write(Path(path), ("\n".join(lines) + "\n").encode())
+
+
+def read_trc(path, *, up: str = "y") -> tuple[list[str], np.ndarray, np.ndarray]:
+    """``(marker names, (F, M, 3) positions in metres in our world, (F,) times in
+    seconds)`` of a TRC file whose up axis is `up` ("y", OpenSim's, or "z", ours). The
+    units come from the file's header; a missing value (``NaN`` or an empty field) is NaN."""
+    path = Path(path)
+    C = change_of_axes(up, "TRC")
+    try:
+        lines = path.read_text().splitlines()
+    except (OSError, UnicodeDecodeError) as e:
+        raise ResultsError(f"{path}: not a readable TRC file ({e})") from None
+    if len(lines) < 5 or not lines[0].startswith("PathFileType"):
+        raise ResultsError(f"{path}: not a TRC file (no PathFileType header)")
+    header = dict(zip(lines[1].split("\t"), lines[2].split("\t")))
+    units = header.get("Units", "").strip().lower()
+    if units not in READ_UNITS:
+        raise ResultsError(f"{path}: unknown units {units!r} (the header's Units: {tuple(READ_UNITS)})")
+    names = [n.strip() for n in lines[3].split("\t")[2:] if n.strip()]
+    if not names:
+        raise ResultsError(f"{path}: no marker names on line 4")
+    rows = []
+    for number, line in enumerate(lines[5:], start=6):
+        fields = line.split("\t")
+        if not line.strip():
+            continue
+        if len(fields) < 2 + 3 * len(names):
+            fields += [""] * (2 + 3 * len(names) - len(fields))  # trailing missing markers
+        try:
+            rows.append([float(v) if v.strip() else np.nan for v in fields[1:2 + 3 * len(names)]])
+        except ValueError:
+            raise ResultsError(f"{path}, line {number}: not a row of numbers") from None
+    if not rows:
+        raise ResultsError(f"{path}: no frames")
+    data = np.asarray(rows, float)
+    positions = data[:, 1:].reshape(len(rows), len(names), 3) / READ_UNITS[units]
+    return names, positions @ C, data[:, 0]
