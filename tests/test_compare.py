@@ -69,10 +69,33 @@ def test_names_are_matched_or_mapped_and_mismatches_named():
     assert compare(TRUNK, truth, 30.0, theirs, truth, times, mapping).raw_mm.max() == pytest.approx(0)
     with pytest.raises(ResultsError, match="share no name"):
         compare(TRUNK, truth, 30.0, theirs, truth, times)
-    with pytest.raises(ResultsError, match=r"the reference's \['hip'\]"):
+    with pytest.raises(ResultsError, match=r"not found among the reference's .*: \['hip'\]"):
         compare(TRUNK, truth, 30.0, theirs, truth, times, {"pelvis": "hip"})
     with pytest.raises(ResultsError, match="within the run's tracked frames"):
         compare(TRUNK, truth, 30.0, TRUNK, truth, times + 5.0)
+
+
+def test_a_reference_in_a_world_of_its_own_is_aligned_and_its_clock_found():
+    # A marker system calibrated apart (its world turned 30° about z and moved), started
+    # 0.12 s after the cameras, filming at 100 frames/s a body that turns and walks.
+    frames = 90
+    t = np.arange(frames) / 30.0
+    spin, body = turning_body(frames)
+    ours = body + np.stack([0.8 * t, 0.3 * np.sin(3 * t), 0.05 * np.sin(5 * t)], 1)[:, None]
+    a = np.radians(30)
+    R = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    ref_times = np.arange(200) / 100.0
+    # The reference is ours seen 0.12 s later, in its own world.
+    exact = np.stack([np.stack([np.interp(ref_times + 0.12, t, ours[:, j, d]) for d in range(3)], 1)
+                      for j in range(4)], 1)
+    reference = (exact - [1.0, 2.0, 0.0]) @ R  # its world: x_theirs = Rᵀ(x_ours − (1, 2, 0))
+    got = compare(TRUNK, ours, 30.0, TRUNK, reference, ref_times, shift="auto", align=True)
+    assert got.shift == pytest.approx(0.12, abs=1e-3)
+    np.testing.assert_allclose(got.alignment[0], R, atol=1e-3)
+    np.testing.assert_allclose(got.alignment[1], [1.0, 2.0, 0.0], atol=2e-3)
+    assert got.means()["raw_mm"] < 2.0  # what is left: linear interpolation of ours between frames
+    unaligned = compare(TRUNK, ours, 30.0, TRUNK, reference, ref_times, shift=0.12)
+    assert unaligned.means()["raw_mm"] > 500
 
 
 @pytest.mark.parametrize("up, units", [("y", "mm"), ("z", "m")])

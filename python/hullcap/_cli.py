@@ -114,7 +114,8 @@ def _export(args) -> int:
 def _compare(args) -> int:
     from hullcap._compare import compare_run
 
-    comparison = compare_run(args.out, args.reference, names=args.names, shift=args.shift, up=args.up)
+    comparison = compare_run(args.out, args.reference, names=args.names, shift=args.shift, up=args.up,
+                             align=args.align)
     print(f"{args.out} against {args.reference}:")
     print(comparison.table())
     if args.json:
@@ -162,6 +163,16 @@ def _volume(text: str):
     if len(v) != 6:
         raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {len(v)}")
     return tuple(v)
+
+
+def _shift(text: str):
+    """``--shift``: seconds, or 'auto'."""
+    if text == "auto":
+        return text
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a number of seconds or 'auto', got {text!r}") from None
 
 
 def _output_options(p) -> None:
@@ -300,13 +311,17 @@ def build_parser() -> argparse.ArgumentParser:
         "as TRC or C3D, or another run's results folder), frame by frame at the reference's times: per joint "
         "the raw error, the error once its constant offset is removed in the world, and once removed in the "
         "reference's own body frame (from its pelvis, neck and hips), which a difference of joint-centre "
-        "conventions needs when the person turns round. Both must be in the same world (one calibration)."))
+        "conventions needs when the person turns round. Both in one world (one calibration), or --align."))
     m.add_argument("out", help="the results folder of a `hullcap track` run")
     m.add_argument("reference", help="the reference: a .trc, a .c3d (needs ezc3d) or another run's results folder")
     m.add_argument("--names", metavar="JSON",
                    help="a JSON object mapping our joint names to the reference's (default: the names both have)")
-    m.add_argument("--shift", type=float, default=0.0, metavar="SECONDS",
-                   help="added to the reference's times, for clocks that do not agree (default 0)")
+    m.add_argument("--shift", type=_shift, default=0.0, metavar="SECONDS",
+                   help="added to the reference's times, for clocks that do not agree (default 0); 'auto': "
+                        "the shift within ±1 s under which the joints agree best")
+    m.add_argument("--align", action="store_true",
+                   help="first move the reference by the rigid motion that lays its joints on ours best (a "
+                        "marker system calibrated apart from the cameras)")
     m.add_argument("--up", choices=["y", "z"], default="y",
                    help="trc: the reference's up axis (default y, OpenSim's; z: our world)")
     m.add_argument("--json", help="also write the figures here as JSON")

@@ -10,8 +10,10 @@ goes whichever way the person faces. What is left is what the two disagree on fr
 frame to frame: the tracking's own error, when the reference is right.
 
 The reference's frames are matched by time: the run's joints are interpolated linearly
-at each reference frame's time (plus a shift for two clocks that do not agree), where
-the run tracked both frames around it.
+at each reference frame's time (plus a shift for two clocks that do not agree, given or
+found), where the run tracked both frames around it. A reference in a world of its own
+(a marker system calibrated apart from the cameras) can be brought into ours first by
+the rigid motion that best lays its joints on ours.
 """
 
 from __future__ import annotations
@@ -70,6 +72,11 @@ class Comparison:
     raw_mm: np.ndarray
     offset_removed_mm: np.ndarray
     body_offset_removed_mm: np.ndarray | None
+    shift: float = 0.0
+    """Seconds added to the reference's times (given, or found)."""
+    alignment: tuple[np.ndarray, np.ndarray] | None = None
+    """``(R, t)``: the rigid motion x ↦ R·x + t that brought the reference into our
+    world, when asked for."""
 
     def means(self) -> dict[str, float | None]:
         """The three figures' means over the joints."""
@@ -88,53 +95,115 @@ class Comparison:
         means = [v for v in self.means().values() if v is not None]
         rows.append(f"{'all joints':<12} " + "  ".join(f"{m:>{len(c)}.1f}" for m, c in zip(means, cols)))
         rows.append(f"{self.frames} frames of the reference compared"
-                    + (f"; {self.missing} more without the run's joints" if self.missing else ""))
+                    + (f"; {self.missing} more without the run's joints" if self.missing else "")
+                    + (f"; its times shifted by {self.shift:+.4f} s" if self.shift else ""))
+        if self.alignment is not None:
+            R, t = self.alignment
+            angle = np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1)))
+            rows.append(f"the reference brought into our world: turned {angle:.2f}°, moved "
+                        f"({t[0]:+.3f}, {t[1]:+.3f}, {t[2]:+.3f}) m")
         return "\n".join(rows)
 
     def to_dict(self) -> dict:
         per_joint = {"raw_mm": self.raw_mm, "offset_removed_mm": self.offset_removed_mm,
                      "body_offset_removed_mm": self.body_offset_removed_mm}
-        return {"frames": self.frames, "missing": self.missing, "means": self.means(),
+        return {"frames": self.frames, "missing": self.missing, "shift_s": self.shift,
+                "alignment": None if self.alignment is None else
+                {"R": self.alignment[0].tolist(), "t": self.alignment[1].tolist()},
+                "means": self.means(),
                 "joints": {name: {k: None if v is None else round(float(v[j]), 2) for k, v in per_joint.items()}
                            for j, name in enumerate(self.joint_names)}}
 
 
 def compare(joint_names, joints, fps: float, reference_names, reference, reference_times,
-            names: dict[str, str] | None = None, shift: float = 0.0) -> Comparison:
+            names: dict[str, str] | None = None, shift: float | str = 0.0, align: bool = False) -> Comparison:
     """Compare a run's (F, J, 3) `joints` (metres, frame f at f / `fps` s, NaN where
     failed) under `joint_names` with a reference's (K, M, 3) positions under
-    `reference_names` at `reference_times` (s, plus `shift`). `names` maps our joint
-    names to the reference's; by default every joint both have, under the same name."""
+    `reference_names` at `reference_times` (s, plus `shift`; ``"auto"``: the shift
+    within ±:data:`MAX_SHIFT` s under which the joints agree best once their offsets are
+    removed). `names` maps our joint names to the reference's; by default every joint
+    both have, under the same name. With `align` the reference is first moved by the
+    rigid motion that lays its joints on ours best (least squares over every frame)."""
     joint_names, reference_names = list(joint_names), list(reference_names)
     joints, reference = np.asarray(joints, float), np.asarray(reference, float)
+    times = np.asarray(reference_times, float)
     pairs = names if names is not None else {n: n for n in joint_names if n in reference_names}
     unknown = [n for n in pairs if n not in joint_names]
     absent = [r for r in pairs.values() if r not in reference_names]
-    if unknown or absent:
-        raise ResultsError("joint names not found: " + "; ".join(
-            part for part in (f"ours {unknown} (ours: {joint_names})" if unknown else "",
-                              f"the reference's {absent} (its: {reference_names})" if absent else "") if part))
+    if unknown:
+        raise ResultsError(f"joint names not found among ours {joint_names}: {unknown}")
+    if absent:
+        raise ResultsError(f"joint names not found among the reference's {reference_names}: {absent}")
     if not pairs:
         raise ResultsError(f"the run's joints {joint_names} and the reference's {reference_names} share no name: "
                            "map them (names)")
-    ours_at = _interpolated(joints[:, [joint_names.index(n) for n in pairs]], fps,
-                            np.asarray(reference_times, float) + shift)
+    ours = joints[:, [joint_names.index(n) for n in pairs]]
     theirs = reference[:, [reference_names.index(r) for r in pairs.values()]]
-    err = ours_at - theirs
+    if isinstance(shift, str):
+        if shift != "auto":
+            raise ResultsError(f"shift is a number of seconds or 'auto', got {shift!r}")
+        shift = _best_shift(ours, fps, theirs, times, align)
+    ours_at = _interpolated(ours, fps, times + shift)
     compared = ~np.isnan(ours_at).all(axis=(1, 2))
     if not compared.any():
-        span = len(joints) / fps
-        raise ResultsError(f"no frame of the reference falls within the run's tracked frames (0 to {span:.2f} s; "
-                           f"the reference's times {reference_times[0]:.2f} to {reference_times[-1]:.2f} s, "
+        raise ResultsError(f"no frame of the reference falls within the run's tracked frames (0 to "
+                           f"{len(joints) / fps:.2f} s; the reference's times {times[0]:.2f} to {times[-1]:.2f} s, "
                            f"shifted by {shift} s)")
-    err = err[compared]
+    ours_at, theirs = ours_at[compared], theirs[compared]
+    alignment = _rigid(theirs, ours_at) if align else None
+    if alignment is not None:
+        theirs = theirs @ alignment[0].T + alignment[1]
+    err = ours_at - theirs
     with np.errstate(invalid="ignore"):
         raw = np.nanmean(np.linalg.norm(err, axis=2), axis=0) * 1e3
     body = None
     if all(n in pairs for n in TRUNK):
-        frames = body_frames(list(pairs), theirs[compared])
+        frames = body_frames(list(pairs), theirs)
         body = offset_removed_mm(np.einsum("fdb,fjd->fjb", frames, err))
-    return Comparison(tuple(pairs), int(compared.sum()), int((~compared).sum()), raw, offset_removed_mm(err), body)
+    return Comparison(tuple(pairs), int(compared.sum()), int((~compared).sum()), raw, offset_removed_mm(err), body,
+                      float(shift), alignment)
+
+
+MAX_SHIFT = 1.0
+"""The largest clock difference (s) ``shift="auto"`` looks for: two systems started by
+hand, or a trigger's delay."""
+
+
+def _best_shift(ours, fps: float, theirs, times, align: bool) -> float:
+    """The shift (s) within ±:data:`MAX_SHIFT` under which the joints' mean error, each
+    joint's offset removed, is least: on a grid of a quarter of our frame, then a
+    fortieth around its best."""
+    def cost(shift):
+        at = _interpolated(ours, fps, times + shift)
+        kept = ~np.isnan(at).all(axis=(1, 2))
+        if kept.sum() < 2:
+            return np.inf
+        other = theirs[kept]
+        if align:
+            R, t = _rigid(other, at[kept])
+            other = other @ R.T + t
+        return float(np.nanmean(offset_removed_mm(at[kept] - other)))
+
+    step = 0.25 / fps
+    coarse = np.arange(-MAX_SHIFT, MAX_SHIFT + step / 2, step)
+    best = coarse[int(np.argmin([cost(s) for s in coarse]))]
+    fine = best + np.arange(-step, step + step / 20, step / 10)
+    return float(fine[int(np.argmin([cost(s) for s in fine]))])
+
+
+def _rigid(source: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, t)``, the rotation and translation that move the (K, J, 3) `source` points
+    nearest the `target` ones in least squares (Kabsch), over the pairs both hold."""
+    a, b = source.reshape(-1, 3), target.reshape(-1, 3)
+    both = ~(np.isnan(a).any(1) | np.isnan(b).any(1))
+    if both.sum() < 3:
+        raise ResultsError("too few joints in both to align the reference (3 needed)")
+    a, b = a[both], b[both]
+    ca, cb = a.mean(0), b.mean(0)
+    U, _, Vt = np.linalg.svd((a - ca).T @ (b - cb))
+    d = np.sign(np.linalg.det(Vt.T @ U.T))
+    R = Vt.T @ np.diag([1.0, 1.0, d]) @ U.T
+    return R, cb - R @ ca
 
 
 def _interpolated(joints: np.ndarray, fps: float, times: np.ndarray) -> np.ndarray:
@@ -174,7 +243,8 @@ def reference_joints(path, up: str = "y") -> tuple[list[str], np.ndarray, np.nda
     raise ResultsError(f"{path}: a reference is a .trc or .c3d file, or a results folder")
 
 
-def compare_run(out, reference, names=None, shift: float = 0.0, up: str = "y") -> Comparison:
+def compare_run(out, reference, names=None, shift: float | str = 0.0, up: str = "y",
+                align: bool = False) -> Comparison:
     """:func:`compare` a finished run's results folder `out` with the `reference` of
     :func:`reference_joints`; `names` a mapping or a JSON file of one (ours → theirs)."""
     from hullcap._results import load_result
@@ -188,4 +258,4 @@ def compare_run(out, reference, names=None, shift: float = 0.0, up: str = "y") -
         if not isinstance(names, dict) or not all(isinstance(v, str) for v in names.values()):
             raise ResultsError("the joint names' mapping must be a JSON object of our names to the reference's")
     ref_names, ref, times = reference_joints(reference, up)
-    return compare(result.model.joint_names, result.joints, result.fps, ref_names, ref, times, names, shift)
+    return compare(result.model.joint_names, result.joints, result.fps, ref_names, ref, times, names, shift, align)
