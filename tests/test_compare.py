@@ -155,7 +155,10 @@ def test_compare_command_against_a_runs_own_trc_export_and_another_run(tmp_path,
     assert "in the body's frame (mm)" in out and f"{n} frames of the reference compared" in out
     same = json.loads((tmp_path / "same.json").read_text())
     assert same["frames"] == n and same["means"]["raw_mm"] < 1e-3
-    assert main(["compare", str(tmp_path / "b"), str(tmp_path / "a"), "--json", str(tmp_path / "moved.json")]) == 0
+    assert main(["compare", str(tmp_path / "b"), str(tmp_path / "a"), "--json", str(tmp_path / "moved.json"),
+                 "--plot", str(tmp_path / "moved.png")]) == 0
+    picture = __import__("cv2").imread(str(tmp_path / "moved.png"))
+    assert picture is not None and picture.shape[0] > 400
     moved = json.loads((tmp_path / "moved.json").read_text())["means"]
     assert moved["raw_mm"] == pytest.approx(20, abs=1e-6)  # a constant offset: all of it removed
     assert moved["offset_removed_mm"] == pytest.approx(0, abs=1e-6)

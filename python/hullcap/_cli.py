@@ -123,6 +123,9 @@ def _compare(args) -> int:
 
         atomic_write(Path(args.json), json.dumps(comparison.to_dict(), indent=1).encode())
         print(f"{args.json}: written")
+    if args.plot:
+        comparison.plot(args.plot, f"{Path(args.out).name} against {Path(args.reference).name}")
+        print(f"{args.plot}: written")
     return 0
 
 
@@ -325,6 +328,7 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--up", choices=["y", "z"], default="y",
                    help="trc: the reference's up axis (default y, OpenSim's; z: our world)")
     m.add_argument("--json", help="also write the figures here as JSON")
+    m.add_argument("--plot", metavar="PNG", help="also draw the errors over time and per joint here")
     m.set_defaults(run=_compare)
     return ap
 

@@ -56,7 +56,16 @@ def offset_removed_mm(err: np.ndarray) -> np.ndarray:
     """(J,) per joint, the mean length in millimetres of the (F, J, 3) errors (metres,
     NaN where missing) once their mean over the frames is removed."""
     with np.errstate(invalid="ignore"):
-        return np.nanmean(np.linalg.norm(err - np.nanmean(err, axis=0), axis=2), axis=0) * 1e3
+        return np.nanmean(_lengths_mm(_without_offset(err)), axis=0)
+
+
+def _without_offset(err: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore"):
+        return err - np.nanmean(err, axis=0)
+
+
+def _lengths_mm(err: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(err, axis=-1) * 1e3
 
 
 @dataclass(frozen=True)
@@ -77,6 +86,10 @@ class Comparison:
     alignment: tuple[np.ndarray, np.ndarray] | None = None
     """``(R, t)``: the rigid motion x ↦ R·x + t that brought the reference into our
     world, when asked for."""
+    times: np.ndarray | None = None
+    """(K,) the compared frames' times (s, the reference's clock)."""
+    over_time_mm: dict[str, np.ndarray] | None = None
+    """Each figure's mean over the joints, per compared frame (K,)."""
 
     def means(self) -> dict[str, float | None]:
         """The three figures' means over the joints."""
@@ -103,6 +116,42 @@ class Comparison:
             rows.append(f"the reference brought into our world: turned {angle:.2f}°, moved "
                         f"({t[0]:+.3f}, {t[1]:+.3f}, {t[2]:+.3f}) m")
         return "\n".join(rows)
+
+    def plot(self, path, title: str = "") -> None:
+        """A picture of the comparison (PNG): the errors over time, averaged over the
+        joints, and each joint's three figures."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        from hullcap._files import atomic_write
+
+        labels = {"raw_mm": "raw", "offset_removed_mm": "offset removed",
+                  "body_offset_removed_mm": "offset removed in the body's frame"}
+        figures = {k: v for k, v in (("raw_mm", self.raw_mm), ("offset_removed_mm", self.offset_removed_mm),
+                                     ("body_offset_removed_mm", self.body_offset_removed_mm)) if v is not None}
+        fig, ax = plt.subplots(2, 1, figsize=(9, 4.5 + 0.16 * len(self.joint_names)),
+                               gridspec_kw={"height_ratios": [2.2, 1.0 + 0.1 * len(self.joint_names)]})
+        for key in figures:
+            ax[0].plot(self.times, self.over_time_mm[key], lw=1.1, label=labels[key])
+        ax[0].set(xlabel="time (s, the reference's clock)", ylabel="mean joint error (mm)")
+        ax[0].legend(fontsize=8)
+        y = np.arange(len(self.joint_names))
+        height = 0.8 / len(figures)
+        for k, (key, values) in enumerate(figures.items()):
+            ax[1].barh(y + (k - (len(figures) - 1) / 2) * height, values, height, label=labels[key])
+        ax[1].set_yticks(y, self.joint_names, fontsize=7)
+        ax[1].invert_yaxis()
+        ax[1].set(xlabel="mean error (mm)")
+        for a in ax:
+            a.grid(alpha=0.3)
+        fig.suptitle(title or "Joint centres against the reference")
+        ax[0].set_title(f"{self.frames} frames; " + ", ".join(f"{labels[k]} {np.nanmean(v):.1f} mm"
+                                                                 for k, v in figures.items()), fontsize=9)
+        fig.tight_layout()
+        atomic_write(Path(path), lambda p: fig.savefig(p, dpi=100))
+        plt.close(fig)
 
     def to_dict(self) -> dict:
         per_joint = {"raw_mm": self.raw_mm, "offset_removed_mm": self.offset_removed_mm,
@@ -154,14 +203,16 @@ def compare(joint_names, joints, fps: float, reference_names, reference, referen
     if alignment is not None:
         theirs = theirs @ alignment[0].T + alignment[1]
     err = ours_at - theirs
-    with np.errstate(invalid="ignore"):
-        raw = np.nanmean(np.linalg.norm(err, axis=2), axis=0) * 1e3
-    body = None
+    lengths = {"raw_mm": _lengths_mm(err), "offset_removed_mm": _lengths_mm(_without_offset(err))}
     if all(n in pairs for n in TRUNK):
-        frames = body_frames(list(pairs), theirs)
-        body = offset_removed_mm(np.einsum("fdb,fjd->fjb", frames, err))
-    return Comparison(tuple(pairs), int(compared.sum()), int((~compared).sum()), raw, offset_removed_mm(err), body,
-                      float(shift), alignment)
+        in_body = np.einsum("fdb,fjd->fjb", body_frames(list(pairs), theirs), err)
+        lengths["body_offset_removed_mm"] = _lengths_mm(_without_offset(in_body))
+    with np.errstate(invalid="ignore"):
+        per_joint = {k: np.nanmean(v, axis=0) for k, v in lengths.items()}
+        over_time = {k: np.nanmean(v, axis=1) for k, v in lengths.items()}
+    return Comparison(tuple(pairs), int(compared.sum()), int((~compared).sum()), per_joint["raw_mm"],
+                      per_joint["offset_removed_mm"], per_joint.get("body_offset_removed_mm"), float(shift), alignment,
+                      (times + shift)[compared], over_time)
 
 
 MAX_SHIFT = 1.0
