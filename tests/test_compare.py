@@ -123,6 +123,9 @@ def test_trc_of_another_tool_and_bad_trc_files(tmp_path):
     (tmp_path / "bad.trc").write_text("\n".join(lines[:6] + ["1\t0.00\tten\t90\t-5"]) + "\n")
     with pytest.raises(ResultsError, match="bad.trc, line 7"):
         read_trc(tmp_path / "bad.trc")
+    (tmp_path / "timeless.trc").write_text("\n".join(lines[:6] + ["1\t\t10\t90\t-5"]) + "\n")
+    with pytest.raises(ResultsError, match="timeless.trc, line 7: no time"):
+        read_trc(tmp_path / "timeless.trc")
     (tmp_path / "inch.trc").write_text("\n".join(lines).replace("\tcm\t", "\tin\t") + "\n")
     with pytest.raises(ResultsError, match="unknown units 'in'"):
         read_trc(tmp_path / "inch.trc")

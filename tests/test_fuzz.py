@@ -1,7 +1,8 @@
 """Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, a sequence's
 meta.json, an EasyMocap or Pose2Sim calibration, links.json, a body model's mesh.npz,
-pose.npz or problems.json either load or raise an exception of the hullcap family
-(hullcap.errors.HullcapError), never another one.
+pose.npz, problems.json or a TRC file (the reference of ``hullcap compare``) either load
+or raise an exception of the hullcap family (hullcap.errors.HullcapError), never another
+one.
 
 Inputs are random bytes, valid files with bytes changed, cut or inserted, (for the JSON
 formats) valid documents with one value replaced by arbitrary JSON, and (for mesh.npz
@@ -25,6 +26,7 @@ from hullcap._problems import ProblemLog
 from hullcap._results import load_result
 from hullcap._sequence import Sequence
 from hullcap.errors import HullcapError
+from hullcap.export import read_trc, write_trc
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -102,6 +104,23 @@ CAMERAS_JSON = {"units": "m", "cameras": [c.to_dict() for c in CAMERAS]}
 @given(st.one_of(mutated(json.dumps(CAMERAS_JSON).encode()), with_one_value_replaced(CAMERAS_JSON)))
 def test_cameras_json(data):
     loads_or_hullcap_error(Cameras.load, data, "cameras.json")
+
+
+def _trc() -> bytes:
+    with tempfile.TemporaryDirectory() as tmp:
+        joints = np.arange(2 * 3 * 3, dtype=float).reshape(2, 3, 3) / 10
+        joints[1, 2] = np.nan
+        write_trc(Path(tmp) / "j.trc", ["pelvis", "neck", "l_hip"], joints, 30.0)
+        return (Path(tmp) / "j.trc").read_bytes()
+
+
+TRC = _trc()
+
+
+@FUZZ
+@given(mutated(TRC))
+def test_trc(data):
+    loads_or_hullcap_error(read_trc, data, "joints.trc")
 
 
 LINKS = LinkModel.standard().to_dict()

@@ -81,9 +81,12 @@ def read_trc(path, *, up: str = "y") -> tuple[list[str], np.ndarray, np.ndarray]
         if len(fields) < 2 + 3 * len(names):
             fields += [""] * (2 + 3 * len(names) - len(fields))  # trailing missing markers
         try:
-            rows.append([float(v) if v.strip() else np.nan for v in fields[1:2 + 3 * len(names)]])
+            row = [float(v) if v.strip() else np.nan for v in fields[1:2 + 3 * len(names)]]
         except ValueError:
             raise ResultsError(f"{path}, line {number}: not a row of numbers") from None
+        if not np.isfinite(row[0]):
+            raise ResultsError(f"{path}, line {number}: no time")
+        rows.append(row)
     if not rows:
         raise ResultsError(f"{path}: no frames")
     data = np.asarray(rows, float)
