@@ -8,7 +8,7 @@ import pytest
 from hullcap import BodyModel
 from hullcap._cli import main
 from hullcap._compare import compare
-from hullcap._results import TrackingResult, write_outputs
+from hullcap._results import TrackingResult, load_result, write_outputs
 from hullcap.errors import ResultsError
 from hullcap.export import read_trc, write_trc
 
@@ -171,5 +171,19 @@ def test_compare_command_against_a_runs_own_trc_export_and_another_run(tmp_path,
     moved = json.loads((tmp_path / "moved.json").read_text())["means"]
     assert moved["raw_mm"] == pytest.approx(20, abs=1e-6)  # a constant offset: all of it removed
     assert moved["offset_removed_mm"] == pytest.approx(0, abs=1e-6)
+    # A sequence folder's ground truth (truth/joints.npz, as hullcap synth writes it) at its meta.json's rate.
+    seq = tmp_path / "seq"
+    (seq / "truth").mkdir(parents=True)
+    (seq / "meta.json").write_text('{"fps": 30, "frames": 6}')
+    truth = load_result(tmp_path / "a").joints  # run b lies 2 cm from it, all of which the offset removes
+    np.savez(seq / "truth" / "joints.npz", names=np.array(model.joint_names), positions=truth)
+    capsys.readouterr()
+    assert main(["compare", str(tmp_path / "b"), str(seq), "--json", str(tmp_path / "truth.json")]) == 0
+    assert json.loads((tmp_path / "truth.json").read_text())["means"]["offset_removed_mm"] == pytest.approx(0, abs=1e-6)
+    (seq / "meta.json").write_text('{"frames": 6}')
+    assert main(["compare", str(tmp_path / "b"), str(seq)]) == 2
+    assert "needs the sequence's fps" in capsys.readouterr().err
     assert main(["compare", str(tmp_path / "a"), str(tmp_path / "a" / "joints.csv")]) == 2
-    assert "a .trc or .c3d file, or a results folder" in capsys.readouterr().err
+    assert "a .trc or .c3d file, a results folder or a sequence with ground truth" in capsys.readouterr().err
+    assert main(["compare", str(tmp_path / "a"), str(tmp_path)]) == 2
+    assert "neither a run's results folder" in capsys.readouterr().err

@@ -308,15 +308,17 @@ def build_parser() -> argparse.ArgumentParser:
     _output_options(e)
     e.set_defaults(run=_export)
 
-    m = sub.add_parser("compare", help="compare a run's joints with a reference (TRC, C3D or another run)",
+    m = sub.add_parser("compare", help="compare a run's joints with a reference (TRC, C3D, another run, ground truth)",
                        description=(
         "Compare a finished run's joint centres with a reference's (a marker system's or another tracker's, "
-        "as TRC or C3D, or another run's results folder), frame by frame at the reference's times: per joint "
-        "the raw error, the error once its constant offset is removed in the world, and once removed in the "
-        "reference's own body frame (from its pelvis, neck and hips), which a difference of joint-centre "
-        "conventions needs when the person turns round. Both in one world (one calibration), or --align."))
+        "as TRC or C3D, another run's results folder, or a sequence's ground truth), frame by frame at the "
+        "reference's times: per joint the raw error, the error once its constant offset is removed in the "
+        "world, and once removed in the reference's own body frame (from its pelvis, neck and hips), which a "
+        "difference of joint-centre conventions needs when the person turns round. Both in one world (one "
+        "calibration), or --align."))
     m.add_argument("out", help="the results folder of a `hullcap track` run")
-    m.add_argument("reference", help="the reference: a .trc, a .c3d (needs ezc3d) or another run's results folder")
+    m.add_argument("reference", help="the reference: a .trc, a .c3d (needs ezc3d), another run's results folder, "
+                                     "or a sequence folder with ground truth (truth/ or gt/joints.npz)")
     m.add_argument("--names", metavar="JSON",
                    help="a JSON object mapping our joint names to the reference's (default: the names both have)")
     m.add_argument("--shift", type=_shift, default=0.0, metavar="SECONDS",

@@ -274,24 +274,47 @@ def _interpolated(joints: np.ndarray, fps: float, times: np.ndarray) -> np.ndarr
     return out
 
 
+TRUTHS = ("truth/joints.npz", "gt/joints.npz")
+"""Where a sequence folder keeps its ground-truth joints (``names``, ``positions`` F × J ×
+3): ``hullcap synth``'s sequences, and the development set's."""
+
+
 def reference_joints(path, up: str = "y") -> tuple[list[str], np.ndarray, np.ndarray]:
     """``(names, (K, M, 3) metres in our world, (K,) times in seconds)`` of a reference:
-    a TRC file (`up` its up axis), a C3D file (our world's axes; needs ezc3d), or the
-    results folder of another run (failed frames NaN)."""
+    a TRC file (`up` its up axis), a C3D file (our world's axes; needs ezc3d), the
+    results folder of another run (failed frames NaN), or a sequence folder with ground
+    truth (:data:`TRUTHS`, at its ``meta.json``'s rate)."""
+    from hullcap._files import NPZ_ERRORS, read_document
     from hullcap._results import load_result
     from hullcap.export import read_c3d, read_trc
 
     path = Path(path)
     if path.is_dir():
-        other = load_result(path)
-        return list(other.model.joint_names), other.joints, np.arange(len(other.joints)) / other.fps
+        if (path / "pose.npz").is_file():
+            other = load_result(path)
+            return list(other.model.joint_names), other.joints, np.arange(len(other.joints)) / other.fps
+        truth = next((path / t for t in TRUTHS if (path / t).is_file()), None)
+        if truth is None:
+            raise ResultsError(f"{path}: neither a run's results folder (pose.npz) nor a sequence with ground truth "
+                               f"({' or '.join(TRUTHS)})")
+        fps = read_document(path / "meta.json", ResultsError).get("fps")
+        if not (isinstance(fps, (int, float)) and 0 < fps < np.inf):
+            raise ResultsError(f"{path / 'meta.json'}: needs the sequence's fps, got {fps!r}")
+        try:
+            with np.load(truth) as z:
+                names, positions = [str(n) for n in z["names"]], np.asarray(z["positions"], float)
+        except NPZ_ERRORS as e:
+            raise ResultsError(f"{truth}: not readable ground truth ({e})") from None
+        if positions.ndim != 3 or positions.shape[1:] != (len(names), 3):
+            raise ResultsError(f"{truth}: positions of shape {positions.shape} for {len(names)} names")
+        return names, positions, np.arange(len(positions)) / fps
     suffix = path.suffix.lower()
     if suffix == ".trc":
         return read_trc(path, up=up)
     if suffix == ".c3d":
         labels, points, rate = read_c3d(path)
         return labels, points, np.arange(len(points)) / rate
-    raise ResultsError(f"{path}: a reference is a .trc or .c3d file, or a results folder")
+    raise ResultsError(f"{path}: a reference is a .trc or .c3d file, a results folder or a sequence with ground truth")
 
 
 def compare_run(out, reference, names=None, shift: float | str = 0.0, up: str = "y",
