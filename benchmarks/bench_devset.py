@@ -9,8 +9,9 @@ the subject model's limb-length errors against the truth, the mean joint error o
 30 static calibration frames, MPJPE raw and offset-removed over the whole sequence (each
 joint's constant offset removed in the world, as the set's ``score.py`` does, and in the
 body's own frame, where a difference of joint-centre conventions stays constant when the
-person turns round), frames lost, frames re-acquired and frames/s. Each run's folder also gets ``frames.csv``:
-per frame the status, the fit's quality both ways and the true mean joint error.
+person turns round), frames lost, frames re-acquired and frames/s. Each run's folder
+also gets ``frames.csv``: per frame the status, the fit's quality both ways and the true
+mean joint error.
 ``--every K`` tracks every K-th frame only, the same motion filmed at 1/K of the frame
 rate: K times as far between frames for the prediction and the guided masks.
 ``--models-from RUNS`` gives each run the subject's model of the same run in the folder

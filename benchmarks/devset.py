@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hullcap._compare import body_frames, offset_removed_mm
+from hullcap._compare import in_body_frame, offset_removed_mm
 
 REPO = Path(__file__).resolve().parent.parent
 CACHE = REPO / "data" / "devset"
@@ -115,10 +115,6 @@ class Truth:
     def limb_lengths(self) -> dict[str, float]:
         return _limb_lengths(self.names, self.positions)
 
-    def body_frames(self) -> np.ndarray:
-        """(F, 3, 3) the body's frame in each frame (:func:`hullcap._compare.body_frames`)."""
-        return body_frames(self.names, self.positions)
-
 
 def _limb_lengths(names, positions) -> dict[str, float]:
     """Median over frames of each limb's length, left and right averaged (metres)."""
@@ -192,15 +188,14 @@ class Score:
 def score(truth: Truth, joint_names, joints: np.ndarray, failed: np.ndarray,
           frames: slice = slice(None)) -> Score:
     """Raw and offset-removed joint errors over `frames` (as the set's ``score.py``), and
-    offset-removed in the body's frame (the errors turned into :meth:`Truth.body_frames`
-    before each joint's mean is removed): `joints` (F, J, 3) under `joint_names`,
-    `failed` (F,) frames count as lost."""
+    offset-removed in the truth's body frame (:func:`hullcap._compare.in_body_frame`):
+    `joints` (F, J, 3) under `joint_names`, `failed` (F,) frames count as lost."""
     idx = [list(joint_names).index(n) for n in truth.names]
     got = np.asarray(joints, float)[frames][:, idx]
     want = truth.positions[: len(joints)][frames]
     lost = np.asarray(failed, bool)[frames]
     err = np.where(lost[:, None, None], np.nan, got - want)
     raw = np.nanmean(np.linalg.norm(err, axis=2), axis=0) * 1e3
-    in_body = np.einsum("fdb,fjd->fjb", truth.body_frames()[: len(joints)][frames], err)
+    in_body = in_body_frame(truth.names, want, err)
     return Score(len(lost), int(lost.sum()), float(raw.mean()), float(offset_removed_mm(err).mean()),
                  float(offset_removed_mm(in_body).mean()), dict(zip(truth.names, raw.round(1).tolist())))

@@ -1,8 +1,10 @@
 """A run's joints against a reference (hullcap._compare, ``hullcap compare``): offsets
 removed in the world and in the body's frame, frames matched by time, TRC read back."""
 
+import importlib.util
 import json
 
+import cv2
 import numpy as np
 import pytest
 from hullcap import BodyModel
@@ -158,7 +160,7 @@ def test_compare_command_against_a_runs_own_trc_export_and_another_run(tmp_path,
     assert "in the body's frame (mm)" in out and f"{n} frames of the reference compared" in out
     same = json.loads((tmp_path / "same.json").read_text())
     assert same["frames"] == n and same["means"]["raw_mm"] < 1e-3
-    if __import__("importlib").util.find_spec("ezc3d"):  # a C3D file of the joints: the same frames, in mm
+    if importlib.util.find_spec("ezc3d"):  # a C3D file of the joints: the same frames, in mm
         assert main(["export", str(tmp_path / "a"), "--format", "c3d"]) == 0
         assert main(["compare", str(tmp_path / "a"), str(tmp_path / "a" / "joints.c3d"),
                      "--json", str(tmp_path / "c3d.json")]) == 0
@@ -166,7 +168,7 @@ def test_compare_command_against_a_runs_own_trc_export_and_another_run(tmp_path,
         assert c3d["frames"] == n and c3d["means"]["raw_mm"] < 1e-3
     assert main(["compare", str(tmp_path / "b"), str(tmp_path / "a"), "--json", str(tmp_path / "moved.json"),
                  "--plot", str(tmp_path / "moved.png")]) == 0
-    picture = __import__("cv2").imread(str(tmp_path / "moved.png"))
+    picture = cv2.imread(str(tmp_path / "moved.png"))
     assert picture is not None and picture.shape[0] > 400
     moved = json.loads((tmp_path / "moved.json").read_text())["means"]
     assert moved["raw_mm"] == pytest.approx(20, abs=1e-6)  # a constant offset: all of it removed

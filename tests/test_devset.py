@@ -76,4 +76,3 @@ def test_a_subsampled_sequence_keeps_every_kth_frame_and_its_truth(tmp_path):
         assert list(z["names"]) == ["a", "b"]
     with pytest.raises(ValueError, match="every"):
         devset.subsampled(seq, 0)
-

@@ -26,7 +26,8 @@ import numpy as np
 
 from hullcap.errors import ResultsError
 
-__all__ = ["Comparison", "compare", "compare_run", "body_frames", "offset_removed_mm", "reference_joints"]
+__all__ = ["Comparison", "compare", "compare_run", "body_frames", "in_body_frame", "offset_removed_mm",
+           "reference_joints"]
 
 TRUNK = ("pelvis", "neck", "l_hip", "r_hip")
 """The joints the body's frame is made from (see :func:`body_frames`)."""
@@ -46,6 +47,12 @@ def body_frames(names, positions) -> np.ndarray:
     up = at["neck"] - at["pelvis"]
     z = _unit(up - np.sum(up * x, axis=1, keepdims=True) * x)
     return np.stack([x, np.cross(z, x), z], axis=2)
+
+
+def in_body_frame(names, reference, err: np.ndarray) -> np.ndarray:
+    """The (F, J, 3) errors `err` turned into the body frame (:func:`body_frames`) of the
+    (F, J, 3) `reference` joints `names`."""
+    return np.einsum("fdb,fjd->fjb", body_frames(names, reference), err)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -91,21 +98,28 @@ class Comparison:
     over_time_mm: dict[str, np.ndarray] | None = None
     """Each figure's mean over the joints, per compared frame (K,)."""
 
+    LABELS = {"raw_mm": "raw", "offset_removed_mm": "offset removed",
+              "body_offset_removed_mm": "in the body's frame"}
+    """The figures, by their keys in :meth:`to_dict` and ``over_time_mm``."""
+
+    def _figures(self) -> dict[str, np.ndarray]:
+        """The per-joint figures this comparison has, by key."""
+        figures = {"raw_mm": self.raw_mm, "offset_removed_mm": self.offset_removed_mm,
+                   "body_offset_removed_mm": self.body_offset_removed_mm}
+        return {k: v for k, v in figures.items() if v is not None}
+
     def means(self) -> dict[str, float | None]:
-        """The three figures' means over the joints."""
-        body = self.body_offset_removed_mm
-        return {"raw_mm": float(np.nanmean(self.raw_mm)),
-                "offset_removed_mm": float(np.nanmean(self.offset_removed_mm)),
-                "body_offset_removed_mm": None if body is None else float(np.nanmean(body))}
+        """The three figures' means over the joints (None for one it has not)."""
+        figures = self._figures()
+        return {k: float(np.nanmean(figures[k])) if k in figures else None for k in self.LABELS}
 
     def table(self) -> str:
-        body = self.body_offset_removed_mm
-        cols = ["raw (mm)", "offset removed (mm)"] + ([] if body is None else ["in the body's frame (mm)"])
-        rows = [f"{'joint':<12} " + "  ".join(f"{c:>{len(c)}}" for c in cols)]
-        figures = [self.raw_mm, self.offset_removed_mm] + ([] if body is None else [body])
+        figures = self._figures()
+        cols = [f"{self.LABELS[k]} (mm)" for k in figures]
+        rows = [f"{'joint':<12} " + "  ".join(cols)]
         for j, name in enumerate(self.joint_names):
-            rows.append(f"{name:<12} " + "  ".join(f"{f[j]:>{len(c)}.1f}" for f, c in zip(figures, cols)))
-        means = [v for v in self.means().values() if v is not None]
+            rows.append(f"{name:<12} " + "  ".join(f"{f[j]:>{len(c)}.1f}" for f, c in zip(figures.values(), cols)))
+        means = [m for m in self.means().values() if m is not None]
         rows.append(f"{'all joints':<12} " + "  ".join(f"{m:>{len(c)}.1f}" for m, c in zip(means, cols)))
         rows.append(f"{self.frames} frames of the reference compared"
                     + (f"; {self.missing} more without the run's joints" if self.missing else "")
@@ -127,10 +141,7 @@ class Comparison:
 
         from hullcap._files import atomic_write
 
-        labels = {"raw_mm": "raw", "offset_removed_mm": "offset removed",
-                  "body_offset_removed_mm": "offset removed in the body's frame"}
-        figures = {k: v for k, v in (("raw_mm", self.raw_mm), ("offset_removed_mm", self.offset_removed_mm),
-                                     ("body_offset_removed_mm", self.body_offset_removed_mm)) if v is not None}
+        figures, labels = self._figures(), self.LABELS
         fig, ax = plt.subplots(2, 1, figsize=(9, 4.5 + 0.16 * len(self.joint_names)),
                                gridspec_kw={"height_ratios": [2.2, 1.0 + 0.1 * len(self.joint_names)]})
         for key in figures:
@@ -154,13 +165,12 @@ class Comparison:
         plt.close(fig)
 
     def to_dict(self) -> dict:
-        per_joint = {"raw_mm": self.raw_mm, "offset_removed_mm": self.offset_removed_mm,
-                     "body_offset_removed_mm": self.body_offset_removed_mm}
+        figures = self._figures()
         return {"frames": self.frames, "missing": self.missing, "shift_s": self.shift,
                 "alignment": None if self.alignment is None else
                 {"R": self.alignment[0].tolist(), "t": self.alignment[1].tolist()},
                 "means": self.means(),
-                "joints": {name: {k: None if v is None else round(float(v[j]), 2) for k, v in per_joint.items()}
+                "joints": {name: {k: round(float(figures[k][j]), 2) if k in figures else None for k in self.LABELS}
                            for j, name in enumerate(self.joint_names)}}
 
 
@@ -192,21 +202,15 @@ def compare(joint_names, joints, fps: float, reference_names, reference, referen
         if shift != "auto":
             raise ResultsError(f"shift is a number of seconds or 'auto', got {shift!r}")
         shift = _best_shift(ours, fps, theirs, times, align)
-    ours_at = _interpolated(ours, fps, times + shift)
-    compared = ~np.isnan(ours_at).all(axis=(1, 2))
-    if not compared.any():
+    ours_at, theirs, compared, alignment = _matched(ours, fps, theirs, times + shift, align)
+    if ours_at is None:
         raise ResultsError(f"no frame of the reference falls within the run's tracked frames (0 to "
                            f"{len(joints) / fps:.2f} s; the reference's times {times[0]:.2f} to {times[-1]:.2f} s, "
                            f"shifted by {shift} s)")
-    ours_at, theirs = ours_at[compared], theirs[compared]
-    alignment = _rigid(theirs, ours_at) if align else None
-    if alignment is not None:
-        theirs = theirs @ alignment[0].T + alignment[1]
     err = ours_at - theirs
     lengths = {"raw_mm": _lengths_mm(err), "offset_removed_mm": _lengths_mm(_without_offset(err))}
     if all(n in pairs for n in TRUNK):
-        in_body = np.einsum("fdb,fjd->fjb", body_frames(list(pairs), theirs), err)
-        lengths["body_offset_removed_mm"] = _lengths_mm(_without_offset(in_body))
+        lengths["body_offset_removed_mm"] = _lengths_mm(_without_offset(in_body_frame(list(pairs), theirs, err)))
     with np.errstate(invalid="ignore"):
         per_joint = {k: np.nanmean(v, axis=0) for k, v in lengths.items()}
         over_time = {k: np.nanmean(v, axis=1) for k, v in lengths.items()}
@@ -220,20 +224,29 @@ MAX_SHIFT = 1.0
 hand, or a trigger's delay."""
 
 
+def _matched(ours, fps: float, theirs, times, align: bool):
+    """``(ours, theirs, compared, alignment)``: our joints at the reference's `times` and
+    the reference's, on the frames where we have joints (`compared`, a mask of them),
+    the reference moved into our world by `alignment` (``(R, t)``) when `align`; the
+    first two None when no frame has ours."""
+    ours_at = _interpolated(ours, fps, times)
+    compared = ~np.isnan(ours_at).all(axis=(1, 2))
+    if not compared.any():
+        return None, None, compared, None
+    ours_at, theirs = ours_at[compared], theirs[compared]
+    alignment = _rigid(theirs, ours_at) if align else None
+    if alignment is not None:
+        theirs = theirs @ alignment[0].T + alignment[1]
+    return ours_at, theirs, compared, alignment
+
+
 def _best_shift(ours, fps: float, theirs, times, align: bool) -> float:
     """The shift (s) within ±:data:`MAX_SHIFT` under which the joints' mean error, each
     joint's offset removed, is least: on a grid of a quarter of our frame, then a
     fortieth around its best."""
     def cost(shift):
-        at = _interpolated(ours, fps, times + shift)
-        kept = ~np.isnan(at).all(axis=(1, 2))
-        if kept.sum() < 2:
-            return np.inf
-        other = theirs[kept]
-        if align:
-            R, t = _rigid(other, at[kept])
-            other = other @ R.T + t
-        return float(np.nanmean(offset_removed_mm(at[kept] - other)))
+        at, other, compared, _ = _matched(ours, fps, theirs, times + shift, align)
+        return np.inf if compared.sum() < 2 else float(np.nanmean(offset_removed_mm(at - other)))
 
     step = 0.25 / fps
     coarse = np.arange(-MAX_SHIFT, MAX_SHIFT + step / 2, step)

@@ -75,9 +75,9 @@ def read_trc(path, *, up: str = "y") -> tuple[list[str], np.ndarray, np.ndarray]
         raise ResultsError(f"{path}: no marker names on line 4")
     rows = []
     for number, line in enumerate(lines[5:], start=6):
-        fields = line.split("\t")
         if not line.strip():
             continue
+        fields = line.split("\t")
         if len(fields) < 2 + 3 * len(names):
             fields += [""] * (2 + 3 * len(names) - len(fields))  # trailing missing markers
         try:
