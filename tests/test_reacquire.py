@@ -10,6 +10,7 @@ from hullcap._motions import motion_poses
 from hullcap._reacquire import PoseSearch
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
 from hullcap._synth import SUBJECTS, render_motion
+from hullcap.export import write_report
 
 FRAMES = 30
 JUMP = 14
@@ -423,3 +424,26 @@ def test_an_elbow_that_turned_fast_keeps_the_forearm_as_it_was_in_doubt_for_a_wh
     for bad in ({"elbow_doubt": -1}, {"elbow_span": 0}):
         with pytest.raises(OptionsError, match="elbow_doubt"):
             TrackerOptions(**bad)
+
+
+def test_angles_held_at_a_limit_are_found_and_drawn(tmp_path):
+    model = BodyModel.template()
+    names = list(model.dof_names)
+    lo, hi = model.link_model.dof_limits.T
+    result = TrackingResult.empty(model, 6, 30.0)
+    for f in range(6):
+        result.theta[f] = 0.5 * (lo + hi)
+        result.root_rotation[f], result.root_translation[f] = np.eye(3), (0.0, 0.0, 1.0)
+        result.status[f] = GOOD
+    hip, ankle, elbow = (names.index(n) for n in ("r_hip_flexion", "l_ankle_inversion", "l_elbow_flexion"))
+    result.theta[1:4, hip] = hi[hip] - np.radians(0.2)  # within the tolerance of the limit
+    result.theta[4, hip] = hi[hip] - np.radians(2.0)    # clearly short of it
+    result.theta[2, ankle] = lo[ankle]
+    result.theta[:, elbow] = 0.0  # straight: the arm's own stop, not the model's bound
+    result.fail(3)
+    held = result.at_limits()
+    assert held[:, hip].tolist() == [0, 1, 1, 0, 0, 0] and held[2, ankle] == -1
+    assert not held[:, elbow].any() and not held[3].any()
+    assert result.limits_held() == [("r_hip_flexion", "upper", 2), ("l_ankle_inversion", "lower", 1)]
+    write_report(tmp_path / "report.png", result)
+    assert cv2.imread(str(tmp_path / "report.png")) is not None

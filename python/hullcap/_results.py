@@ -35,6 +35,9 @@ STATUS_NAMES = ("good", "recovered", "failed", "interpolated")
 STATS = ("energy", "inlier_fraction", "mean_residual", "coverage", "mean_reverse_residual")
 """Per-frame fit statistics kept from each frame's :class:`~hullcap._fitting.FitResult`."""
 
+LIMIT_TOLERANCE = np.radians(0.5)
+"""How near one of its limits a joint angle lies to count as held there (radians)."""
+
 
 @dataclass
 class TrackingResult:
@@ -85,6 +88,29 @@ class TrackingResult:
         """(F,) how much of each frame's hull the fit explains both ways:
         ½(inlier fraction + coverage), 1 = every point within the inlier distance."""
         return 0.5 * (self.inlier_fraction + self.coverage)
+
+    def at_limits(self) -> np.ndarray:
+        """(F, D) int8: −1 where a frame's joint angle lies at its lower limit in the
+        model, +1 at its upper, 0 elsewhere and in failed frames. An angle held at a
+        limit is the model's bound, not a measurement: the fit would have turned the
+        joint further. A DOF whose range starts at 0 (an elbow's or a knee's flexion: a
+        limb that does not bend backwards) held at 0 is the limb held straight, the
+        body's own stop, and counts as free."""
+        lo, hi = self.model.link_model.dof_limits.T
+        fitted = np.isfinite(self.theta)
+        out = np.zeros(self.theta.shape, np.int8)
+        with np.errstate(invalid="ignore"):
+            out[fitted & (self.theta <= lo + LIMIT_TOLERANCE) & (lo != 0)] = -1
+            out[fitted & (self.theta >= hi - LIMIT_TOLERANCE)] = 1
+        return out
+
+    def limits_held(self) -> list[tuple[str, str, int]]:
+        """``(dof, "lower" | "upper", frames)`` of every joint angle held at one of its
+        limits in some frame (:meth:`at_limits`), most frames first."""
+        held = self.at_limits()
+        found = [(name, side, int((held[:, d] == sign).sum()))
+                 for d, name in enumerate(self.model.dof_names) for side, sign in (("lower", -1), ("upper", 1))]
+        return sorted((f for f in found if f[2]), key=lambda f: -f[2])
 
     @classmethod
     def empty(cls, model: BodyModel, n: int, fps: float) -> TrackingResult:

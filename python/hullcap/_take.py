@@ -19,6 +19,8 @@ from hullcap.errors import OptionsError
 __all__ = ["TakeOptions", "TakeSummary", "track_take"]
 
 MADE = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png, problems.json"
+SAID_LIMITS = 4
+"""How many of the joint angles held at a limit the end of a run names, the most held first."""
 
 
 @dataclass(frozen=True)
@@ -160,5 +162,11 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
         f"{MADE}{', overlay/' if options.overlays else ''}")
     if summary.problems:
         say(f"problems: {summary.problems} (all in {Path(out) / 'problems.json'})")
+    held = result.limits_held()
+    if held:
+        shown = ", ".join(f"{name} ({side}) {frames}" for name, side, frames in held[:SAID_LIMITS])
+        more = f" and {len(held) - SAID_LIMITS} more" if len(held) > SAID_LIMITS else ""
+        say(f"frames with a joint angle held at a limit of the model, where it is a bound and not a "
+            f"measurement: {shown}{more} (report.png)")
     return summary
 

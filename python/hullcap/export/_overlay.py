@@ -113,8 +113,9 @@ def write_report(path, result, truth_joints=None) -> None:
     recovered ones orange): how much of the hull it explains both ways (its model points
     with a hull partner, the hull samples with a model partner, their mean, the quality)
     against the bar the frame had to reach to stand without a search; the mean distance of
-    its pairs both ways; and, with `truth_joints` (F × J × 3), the joint error per body
-    region."""
+    its pairs both ways; the frames where a joint angle was held at one of the model's
+    limits (:meth:`~hullcap._results.TrackingResult.at_limits`, the most held first);
+    and, with `truth_joints` (F × J × 3), the joint error per body region."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -123,8 +124,10 @@ def write_report(path, result, truth_joints=None) -> None:
     from hullcap._results import FAILED, RECOVERED
 
     t = np.arange(len(result.status)) / result.fps
-    rows = 3 if truth_joints is not None else 2
-    fig, ax = plt.subplots(rows, 1, figsize=(9, 2.6 * rows), sharex=True)
+    held = result.limits_held()[:REPORT_LIMIT_ROWS]
+    heights = [2.6, 2.6, 0.6 + 0.22 * max(len(held), 2)] + ([2.6] if truth_joints is not None else [])
+    fig, ax = plt.subplots(len(heights), 1, figsize=(9, sum(heights)), sharex=True,
+                           gridspec_kw={"height_ratios": heights})
     ax[0].plot(t, result.inlier_fraction * 100, lw=0.9, color="tab:green", label="model → hull (inliers)")
     ax[0].plot(t, result.coverage * 100, lw=0.9, color="tab:blue", label="hull → model (coverage)")
     ax[0].plot(t, result.quality * 100, lw=1.6, color="black", label="quality (their mean)")
@@ -136,6 +139,7 @@ def write_report(path, result, truth_joints=None) -> None:
     ax[1].plot(t, result.mean_reverse_residual * 1000, lw=1.2, color="tab:blue", label="hull → model")
     ax[1].set(ylabel="mean pair distance (mm)")
     ax[1].legend(fontsize=8, ncol=2, loc="upper left")
+    _plot_limits_held(ax[2], t, result, held)
     if truth_joints is not None:
         names = result.model.joint_names
         err = np.linalg.norm(result.joints - truth_joints[: len(t)], axis=2) * 1000
@@ -144,9 +148,9 @@ def write_report(path, result, truth_joints=None) -> None:
                   "legs": tuple(n for n in names if any(k in n for k in ("hip", "knee", "ankle", "toe")))}
         for label, members in groups.items():
             idx = [names.index(m) for m in members]
-            ax[2].plot(t, err[:, idx].mean(1), lw=1.2, label=label)
-        ax[2].set(ylabel="joint error (mm)")
-        ax[2].legend(fontsize=8, ncol=3)
+            ax[3].plot(t, err[:, idx].mean(1), lw=1.2, label=label)
+        ax[3].set(ylabel="joint error (mm)")
+        ax[3].legend(fontsize=8, ncol=3)
     counts = {status: int((result.status == status).sum()) for status in (FAILED, RECOVERED)}
     fig.suptitle("How well each frame's fit explains its visual hull")
     ax[0].set_title(f"{len(t)} frames: {counts[FAILED]} failed (shaded red), {counts[RECOVERED]} recovered by a "
@@ -162,3 +166,24 @@ def write_report(path, result, truth_joints=None) -> None:
 
     atomic_write(Path(path), lambda p: fig.savefig(p, dpi=100))
     plt.close(fig)
+
+
+REPORT_LIMIT_ROWS = 12
+"""The most joint angles held at a limit that ``report.png`` shows, the most held first."""
+
+
+def _plot_limits_held(ax, t, result, held) -> None:
+    """One row per angle of `held` (:meth:`~hullcap._results.TrackingResult.limits_held`)
+    with a mark at each frame where it lies at that limit."""
+    at = result.at_limits()
+    dofs = list(result.model.dof_names)
+    for row, (name, side, _) in enumerate(held):
+        frames = np.flatnonzero(at[:, dofs.index(name)] == (1 if side == "upper" else -1))
+        ax.plot(t[frames], np.full(len(frames), row), "|", ms=7, color="tab:purple")
+    ax.set_yticks(range(len(held)), [f"{name} ({side})" for name, side, _ in held], fontsize=7)
+    ax.set_ylim(len(held) - 0.5 if held else 1, -0.5 if held else -1)
+    ax.set_title("joint angles held at a limit of the model: there a bound, not a measurement", fontsize=9)
+    if not held:
+        ax.set_yticks([])
+        ax.text(0.5, 0.5, "no joint angle held at a limit of the model", transform=ax.transAxes,
+                ha="center", va="center", fontsize=8)
