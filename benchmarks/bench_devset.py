@@ -9,7 +9,9 @@ the subject model's limb-length errors against the truth, the mean joint error o
 30 static calibration frames, MPJPE raw and offset-removed over the whole sequence (each
 joint's constant offset removed in the world, as the set's ``score.py`` does, and in the
 body's own frame, where a difference of joint-centre conventions stays constant when the
-person turns round), frames lost, frames re-acquired and frames/s. Each run's folder
+person turns round), frames lost, frames re-acquired and frames/s; then each run's
+error per joint and the joint angles its fits held at a limit of the model (where an
+angle is a bound, not a measurement: a limit the motion needs). Each run's folder
 also gets ``frames.csv``: per frame the status, the fit's quality both ways and the true
 mean joint error.
 ``--every K`` tracks every K-th frame only, the same motion filmed at 1/K of the frame
@@ -94,7 +96,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
             "reacquired": int((result.status == RECOVERED).sum()),
             "fps": n / seconds, "fit_fps": n / max(result.seconds.get("fit", 0.0), 1e-9),
             "worst_frame": int(np.nanargmax(np.where(result.failed, -1, err))),
-            "per_joint_mm": whole.per_joint_mm}
+            "per_joint_mm": whole.per_joint_mm, "limits_held": result.limits_held()}
 
 
 def _run_sharing(threads: int, *args) -> dict:
@@ -172,6 +174,10 @@ def main():
     print("\nper joint, raw (mm):")
     for r in rows:
         print(f"  {r['sequence']} / {r['silhouettes']}: " + ", ".join(f"{k} {v}" for k, v in r["per_joint_mm"].items()))
+    print("\njoint angles held at a limit of the model (frames; the most held first):")
+    for r in rows:
+        held = ", ".join(f"{dof} ({side}) {n}" for dof, side, n in r["limits_held"][:6]) or "none"
+        print(f"  {r['sequence']} / {r['silhouettes']}: {held}")
     if args.json:
         Path(args.json).write_text(json.dumps(rows, indent=1))
 
