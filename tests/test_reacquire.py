@@ -10,6 +10,7 @@ from hullcap._motions import motion_poses
 from hullcap._reacquire import PoseSearch
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
 from hullcap._synth import SUBJECTS, render_motion
+from hullcap._take import limits_held_line
 from hullcap.export import write_report
 
 FRAMES = 30
@@ -447,3 +448,6 @@ def test_angles_held_at_a_limit_are_found_and_drawn(tmp_path):
     assert result.limits_held() == [("r_hip_flexion", "upper", 2), ("l_ankle_inversion", "lower", 1)]
     write_report(tmp_path / "report.png", result)
     assert cv2.imread(str(tmp_path / "report.png")) is not None
+    assert "r_hip_flexion (upper) 2, l_ankle_inversion (lower) 1 (report.png)" in limits_held_line(result.limits_held())
+    many = [(f"dof{k}", "upper", 10 - k) for k in range(6)]
+    assert limits_held_line(many).endswith("dof3 (upper) 7 and 2 more (report.png)")

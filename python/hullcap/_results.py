@@ -37,6 +37,8 @@ STATS = ("energy", "inlier_fraction", "mean_residual", "coverage", "mean_reverse
 
 LIMIT_TOLERANCE = np.radians(0.5)
 """How near one of its limits a joint angle lies to count as held there (radians)."""
+LIMIT_SIDES = {"lower": -1, "upper": 1}
+"""The values :meth:`TrackingResult.at_limits` gives an angle held at each limit."""
 
 
 @dataclass
@@ -109,7 +111,7 @@ class TrackingResult:
         limits in some frame (:meth:`at_limits`), most frames first."""
         held = self.at_limits()
         found = [(name, side, int((held[:, d] == sign).sum()))
-                 for d, name in enumerate(self.model.dof_names) for side, sign in (("lower", -1), ("upper", 1))]
+                 for d, name in enumerate(self.model.dof_names) for side, sign in LIMIT_SIDES.items()]
         return sorted((f for f in found if f[2]), key=lambda f: -f[2])
 
     @classmethod

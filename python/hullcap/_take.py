@@ -164,9 +164,15 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
         say(f"problems: {summary.problems} (all in {Path(out) / 'problems.json'})")
     held = result.limits_held()
     if held:
-        shown = ", ".join(f"{name} ({side}) {frames}" for name, side, frames in held[:SAID_LIMITS])
-        more = f" and {len(held) - SAID_LIMITS} more" if len(held) > SAID_LIMITS else ""
-        say(f"frames with a joint angle held at a limit of the model, where it is a bound and not a "
-            f"measurement: {shown}{more} (report.png)")
+        say(limits_held_line(held))
     return summary
+
+
+def limits_held_line(held) -> str:
+    """The line the end of a run gives the joint angles held at a limit of the model
+    (``TrackingResult.limits_held``), the first :data:`SAID_LIMITS` of them by name."""
+    shown = ", ".join(f"{name} ({side}) {frames}" for name, side, frames in held[:SAID_LIMITS])
+    more = f" and {len(held) - SAID_LIMITS} more" if len(held) > SAID_LIMITS else ""
+    return (f"frames with a joint angle held at a limit of the model, where it is a bound and not a "
+            f"measurement: {shown}{more} (report.png)")
 

@@ -175,10 +175,12 @@ REPORT_LIMIT_ROWS = 12
 def _plot_limits_held(ax, t, result, held) -> None:
     """One row per angle of `held` (:meth:`~hullcap._results.TrackingResult.limits_held`)
     with a mark at each frame where it lies at that limit."""
+    from hullcap._results import LIMIT_SIDES
+
     at = result.at_limits()
     dofs = list(result.model.dof_names)
     for row, (name, side, _) in enumerate(held):
-        frames = np.flatnonzero(at[:, dofs.index(name)] == (1 if side == "upper" else -1))
+        frames = np.flatnonzero(at[:, dofs.index(name)] == LIMIT_SIDES[side])
         ax.plot(t[frames], np.full(len(frames), row), "|", ms=7, color="tab:purple")
     ax.set_yticks(range(len(held)), [f"{name} ({side})" for name, side, _ in held], fontsize=7)
     ax.set_ylim(len(held) - 0.5 if held else 1, -0.5 if held else -1)
