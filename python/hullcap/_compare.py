@@ -36,8 +36,8 @@ TRUNK = ("pelvis", "neck", "l_hip", "r_hip")
 def body_frames(names, positions) -> np.ndarray:
     """(F, 3, 3) the body's frame in each of the (F, J, 3) `positions` of joints `names`,
     its axes as columns: x from the right hip to the left, z from the pelvis towards the
-    neck (made square to x), y = z × x (towards the back). NaN where a joint of
-    :data:`TRUNK` is missing."""
+    neck (made square to x), y = z × x (towards the back). NaN in a frame where a joint
+    of :data:`TRUNK` is NaN; ResultsError when `names` lacks one."""
     names = list(names)
     missing = [n for n in TRUNK if n not in names]
     if missing:
@@ -287,17 +287,13 @@ def _interpolated(joints: np.ndarray, fps: float, times: np.ndarray) -> np.ndarr
     return out
 
 
-TRUTHS = ("truth/joints.npz", "gt/joints.npz")
-"""Where a sequence folder keeps its ground-truth joints (``names``, ``positions`` F × J ×
-3): ``hullcap synth``'s sequences, and the development set's."""
-
-
 def reference_joints(path, up: str = "y") -> tuple[list[str], np.ndarray, np.ndarray]:
     """``(names, (K, M, 3) metres in our world, (K,) times in seconds)`` of a reference:
     a TRC file (`up` its up axis), a C3D file (our world's axes; needs ezc3d), the
     results folder of another run (failed frames NaN), or a sequence folder with ground
-    truth (:data:`TRUTHS`, at its ``meta.json``'s rate)."""
-    from hullcap._files import NPZ_ERRORS, read_document
+    truth (:func:`~hullcap._evaluate.read_truth_joints`, at its ``meta.json``'s rate)."""
+    from hullcap._evaluate import TRUTHS, read_truth_joints
+    from hullcap._files import read_document
     from hullcap._results import load_result
     from hullcap.export import read_c3d, read_trc
 
@@ -306,20 +302,14 @@ def reference_joints(path, up: str = "y") -> tuple[list[str], np.ndarray, np.nda
         if (path / "pose.npz").is_file():
             other = load_result(path)
             return list(other.model.joint_names), other.joints, np.arange(len(other.joints)) / other.fps
-        truth = next((path / t for t in TRUTHS if (path / t).is_file()), None)
+        truth = read_truth_joints(path)
         if truth is None:
             raise ResultsError(f"{path}: neither a run's results folder (pose.npz) nor a sequence with ground truth "
                                f"({' or '.join(TRUTHS)})")
         fps = read_document(path / "meta.json", ResultsError).get("fps")
         if not (isinstance(fps, (int, float)) and 0 < fps < np.inf):
             raise ResultsError(f"{path / 'meta.json'}: needs the sequence's fps, got {fps!r}")
-        try:
-            with np.load(truth) as z:
-                names, positions = [str(n) for n in z["names"]], np.asarray(z["positions"], float)
-        except NPZ_ERRORS as e:
-            raise ResultsError(f"{truth}: not readable ground truth ({e})") from None
-        if positions.ndim != 3 or positions.shape[1:] != (len(names), 3):
-            raise ResultsError(f"{truth}: positions of shape {positions.shape} for {len(names)} names")
+        names, positions = truth
         return names, positions, np.arange(len(positions)) / fps
     suffix = path.suffix.lower()
     if suffix == ".trc":

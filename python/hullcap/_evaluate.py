@@ -8,8 +8,13 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._fitting import angles_by_name
+from hullcap.errors import ResultsError
 
-__all__ = ["Accuracy", "accuracy", "true_joints"]
+__all__ = ["Accuracy", "accuracy", "read_truth_joints", "true_joints"]
+
+TRUTHS = ("truth/joints.npz", "gt/joints.npz")
+"""Where a sequence folder keeps its ground-truth joints (``names``, ``positions`` F × J ×
+3): ``hullcap synth``'s sequences, and the development set's."""
 
 
 @dataclass(frozen=True)
@@ -33,13 +38,33 @@ class Accuracy:
         return "\n".join(rows)
 
 
+def read_truth_joints(sequence_path) -> tuple[list[str], np.ndarray] | None:
+    """``(names, (F, J, 3) positions)`` of a sequence folder's ground-truth joints
+    (:data:`TRUTHS`), or None when it has none; ResultsError naming the file when it is
+    not readable ground truth."""
+    from hullcap._files import NPZ_ERRORS
+
+    truth = next((Path(sequence_path) / t for t in TRUTHS if (Path(sequence_path) / t).is_file()), None)
+    if truth is None:
+        return None
+    try:
+        with np.load(truth) as z:
+            names, positions = [str(n) for n in z["names"]], np.asarray(z["positions"], float)
+    except NPZ_ERRORS as e:
+        raise ResultsError(f"{truth}: not readable ground truth ({e})") from None
+    if positions.ndim != 3 or positions.shape[1:] != (len(names), 3):
+        raise ResultsError(f"{truth}: positions of shape {positions.shape} for {len(names)} names")
+    return names, positions
+
+
 def true_joints(result, sequence_path) -> np.ndarray:
     """(F, J, 3) the true joint positions of the frames `result` tracked, in the order of
-    its model's joints, from ``truth/`` of a synthetic sequence."""
-    with np.load(Path(sequence_path) / "truth" / "joints.npz") as z:
-        names = tuple(str(n) for n in z["names"])
-        positions = z["positions"][: len(result.failed)]
-    return positions[:, [names.index(j) for j in result.model.joint_names]]
+    its model's joints, from the ground truth of the sequence (:func:`read_truth_joints`)."""
+    truth = read_truth_joints(sequence_path)
+    if truth is None:
+        raise ResultsError(f"{sequence_path}: no ground truth ({' or '.join(TRUTHS)})")
+    names, positions = truth
+    return positions[: len(result.failed), [names.index(j) for j in result.model.joint_names]]
 
 
 def accuracy(result, sequence_path) -> Accuracy:

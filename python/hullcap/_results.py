@@ -106,10 +106,11 @@ class TrackingResult:
             out[fitted & (self.theta >= hi - LIMIT_TOLERANCE)] = 1
         return out
 
-    def limits_held(self) -> list[tuple[str, str, int]]:
+    def limits_held(self, at_limits: np.ndarray | None = None) -> list[tuple[str, str, int]]:
         """``(dof, "lower" | "upper", frames)`` of every joint angle held at one of its
-        limits in some frame (:meth:`at_limits`), most frames first."""
-        held = self.at_limits()
+        limits in some frame (:meth:`at_limits`, or `at_limits` when given), most frames
+        first."""
+        held = self.at_limits() if at_limits is None else at_limits
         found = [(name, side, int((held[:, d] == sign).sum()))
                  for d, name in enumerate(self.model.dof_names) for side, sign in LIMIT_SIDES.items()]
         return sorted((f for f in found if f[2]), key=lambda f: -f[2])

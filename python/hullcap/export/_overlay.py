@@ -124,7 +124,8 @@ def write_report(path, result, truth_joints=None) -> None:
     from hullcap._results import FAILED, RECOVERED
 
     t = np.arange(len(result.status)) / result.fps
-    held = result.limits_held()[:REPORT_LIMIT_ROWS]
+    at_limits = result.at_limits()
+    held = result.limits_held(at_limits)[:REPORT_LIMIT_ROWS]
     heights = [2.6, 2.6, 0.6 + 0.22 * max(len(held), 2)] + ([2.6] if truth_joints is not None else [])
     fig, ax = plt.subplots(len(heights), 1, figsize=(9, sum(heights)), sharex=True,
                            gridspec_kw={"height_ratios": heights})
@@ -139,7 +140,7 @@ def write_report(path, result, truth_joints=None) -> None:
     ax[1].plot(t, result.mean_reverse_residual * 1000, lw=1.2, color="tab:blue", label="hull → model")
     ax[1].set(ylabel="mean pair distance (mm)")
     ax[1].legend(fontsize=8, ncol=2, loc="upper left")
-    _plot_limits_held(ax[2], t, result, held)
+    _plot_limits_held(ax[2], t, result.model.dof_names, at_limits, held)
     if truth_joints is not None:
         names = result.model.joint_names
         err = np.linalg.norm(result.joints - truth_joints[: len(t)], axis=2) * 1000
@@ -172,15 +173,14 @@ REPORT_LIMIT_ROWS = 12
 """The most joint angles held at a limit that ``report.png`` shows, the most held first."""
 
 
-def _plot_limits_held(ax, t, result, held) -> None:
+def _plot_limits_held(ax, t, dof_names, at_limits, held) -> None:
     """One row per angle of `held` (:meth:`~hullcap._results.TrackingResult.limits_held`)
-    with a mark at each frame where it lies at that limit."""
+    with a mark at each frame where `at_limits` (its :meth:`at_limits`) has it at that limit."""
     from hullcap._results import LIMIT_SIDES
 
-    at = result.at_limits()
-    dofs = list(result.model.dof_names)
+    dofs = list(dof_names)
     for row, (name, side, _) in enumerate(held):
-        frames = np.flatnonzero(at[:, dofs.index(name)] == LIMIT_SIDES[side])
+        frames = np.flatnonzero(at_limits[:, dofs.index(name)] == LIMIT_SIDES[side])
         ax.plot(t[frames], np.full(len(frames), row), "|", ms=7, color="tab:purple")
     ax.set_yticks(range(len(held)), [f"{name} ({side})" for name, side, _ in held], fontsize=7)
     ax.set_ylim(len(held) - 0.5 if held else 1, -0.5 if held else -1)

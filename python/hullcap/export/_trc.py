@@ -25,7 +25,7 @@ __all__ = ["read_trc", "write_trc"]
 
 UNITS = {"mm": 1000.0, "m": 1.0}
 """Units :func:`write_trc` writes, as values per metre."""
-READ_UNITS = {"mm": 1000.0, "cm": 100.0, "m": 1.0}
+READ_UNITS = UNITS | {"cm": 100.0}
 """Units :func:`read_trc` reads, as values per metre."""
 
 
