@@ -902,3 +902,35 @@ def test_the_colour_models_log_ratio_is_the_histograms_of_each_pixels_colour(bin
     for bad in (0, 257):
         with pytest.raises(ValueError, match="bins"):
             GuidedOptions(bins=bad)
+
+
+@pytest.mark.parametrize("bins", [1, 16, 41])
+def test_the_guided_log_odds_are_numpys_sum_to_the_bit(bins, rng):
+    """The engine's one pass gives the log-odds of NumPy's steps (the evidence clipped
+    and split by sign, the prior's ramp, the colours' clipped log-ratio) to the bit, over
+    a window of the view; a window or an array that does not fit is refused by name."""
+    from hullcap._engine import guided_logit
+    from hullcap.errors import ModelError
+
+    evidence = rng.normal(0, 4, (30, 40)).astype(np.float32)  # beyond both bounds
+    image = rng.integers(0, 256, (30, 40, 3), dtype=np.uint8)
+    ramp = rng.uniform(-1, 1, (20, 25)).astype(np.float32)
+    table = rng.normal(0, 3, bins**3).astype(np.float32)
+    roi = (slice(6, 26), slice(10, 35))
+    weights = (-3.0, FOREGROUND_EVIDENCE, 0.3, 2.0, 1.0, 4.0)
+    ev = np.clip(evidence[roi], -3.0, FOREGROUND_EVIDENCE)
+    plain = np.where(ev > 0, ev, 0.3 * ev) + 2.0 * ramp
+    q = image[roi].astype(np.int64) * bins // 256
+    coloured = plain + 1.0 * np.clip(table[(q[..., 0] * bins + q[..., 1]) * bins + q[..., 2]], -4.0, 4.0)
+    for colours, want in ((None, plain), ((table, bins), coloured)):
+        got = guided_logit(evidence, image, (6, 10), ramp, weights, colours)
+        assert got.dtype == np.float32 and got.shape == (20, 25)
+        assert np.array_equal(got.view(np.uint32), want.astype(np.float32).view(np.uint32))
+    with pytest.raises(ModelError, match="do not lie in a 40×30 image"):
+        guided_logit(evidence, image, (11, 10), ramp, weights)
+    with pytest.raises(ModelError, match=f"colour table of {bins**3 + 1} values"):
+        guided_logit(evidence, image, (6, 10), ramp, weights, (np.append(table, 0.0), bins))
+    with pytest.raises(ModelError, match="not in order"):
+        guided_logit(evidence, image, (6, 10), ramp, (1.0, -1.0, 0.3, 2.0, 1.0, 4.0))
+    with pytest.raises(ArrayError, match="image has the shape"):
+        guided_logit(evidence, image[:, :, :1], (6, 10), ramp, weights)

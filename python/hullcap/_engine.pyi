@@ -495,6 +495,40 @@ def background_distortions(
     against the model of ``background_evidence``'s `planes` (whose last plane is not
     read), each (H, W) float32, CD not normalised."""
 
+def guided_logit(
+    evidence: npt.ArrayLike,
+    image: npt.ArrayLike,
+    origin: tuple[int, int],
+    ramp: npt.ArrayLike,
+    weights: tuple[float, float, float, float, float, float],
+    colours: tuple[npt.ArrayLike, int] | None = None,
+) -> npt.NDArray[np.float32]:
+    """The log-odds of the model-guided silhouettes (``hullcap._guided``) over a window of
+    one view, in one pass: per pixel, the evidence clipped into ``weights[0]..weights[1]``
+    (times ``weights[2]`` where it is not positive), plus ``weights[3]`` times the prior's
+    ramp, plus ``weights[4]`` times the colour log-ratio clipped into ±``weights[5]``.
+    The arithmetic is NumPy's steps one for one in single precision, so the values are
+    theirs to the bit.
+
+    Args:
+        evidence: (H, W) float32, the background test's evidence of the whole view.
+        image: (H, W, 3) uint8, the view's image.
+        origin: (row, column) of the window's first pixel.
+        ramp: (h, w) float32, the prior's ramp over the window (which it sizes).
+        weights: (evidence_min, evidence_max, background, prior, colour, colour_limit).
+        colours: ``(table, bins)``: the log-ratio of each colour bin, bins³ float32
+            indexed (c0·bins + c1)·bins + c2 by the bins (value·bins // 256) of a pixel's
+            channels in the image's order; ``None`` leaves the colour term out.
+
+    Returns:
+        (h, w) float32 log-odds, > 0 for the subject.
+
+    Raises:
+        ArrayError: an array of the wrong type or shape.
+        ModelError: the window does not lie in the image, the table does not hold bins³
+            values, or the bounds are NaN or out of order.
+    """
+
 def gaussian_blur(
     values: npt.ArrayLike,
     sigma: float,

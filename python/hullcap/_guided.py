@@ -38,6 +38,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from hullcap._engine import guided_logit
 from hullcap._silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, clean_mask, half_covered, signed_distance
 from hullcap.errors import OptionsError
 
@@ -230,14 +231,22 @@ class ColourModel:
     def log_ratio(self, image: np.ndarray) -> np.ndarray:
         """log P(colour | subject) − log P(colour | background) per pixel (add-one
         smoothed; 0 everywhere before anything was learnt)."""
-        if not self.ready:
+        table = self.table()
+        if table is None:
             return np.zeros(image.shape[:2], np.float32)
+        return np.take(table, self._index(image))
+
+    def table(self) -> np.ndarray | None:
+        """The log-ratio of :meth:`log_ratio` of each colour bin (bins³ float32, indexed
+        by a pixel's bins (c0·bins + c1)·bins + c2), or None before anything was learnt."""
+        if not self.ready:
+            return None
         if self._table is None:
             s = np.log((self.subject + 1) / (self.subject.sum() + self.subject.size))
             band = (self.background + 1) / (self.background.sum() + self.background.size)
             b = np.log((1 - self.scene_share) * band + self.scene_share * self.scene / self.scene.sum())
             self._table = (s - b).astype(np.float32)
-        return np.take(self._table, self._index(image))
+        return self._table
 
 
 class TextureTest:
@@ -324,11 +333,12 @@ class GuidedSegmenter:
         y0, y1 = max(0, y - pad), min(image.shape[0], y + h + pad)
         x0, x1 = max(0, x - pad), min(image.shape[1], x + w + pad)
         roi = (slice(y0, y1), slice(x0, x1))
-        ev = np.clip(evidence[roi], -3.0, FOREGROUND_EVIDENCE)
         ramp = _ramp(prior, box, roi, max(1.0, o.band * h), max(1.0, o.outer * h))
-        logit = np.where(ev > 0, ev, o.background_weight * ev) + o.prior * ramp
-        if o.colour_weight:
-            logit += o.colour_weight * np.clip(self.colours.log_ratio(image[roi]), -4.0, 4.0)
+        table = self.colours.table() if o.colour_weight else None
+        logit = guided_logit(
+            evidence, image, (y0, x0), ramp,
+            (-3.0, FOREGROUND_EVIDENCE, o.background_weight, o.prior, o.colour_weight, 4.0),
+            None if table is None else (table, self.colours.bins))
         if self.texture is not None:
             logit += o.texture_weight * self.texture.evidence(image, roi)
         if o.smooth > 0:

@@ -37,6 +37,7 @@ fn _engine(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(raster::doubtful_points, m)?)?;
     m.add_function(wrap_pyfunction!(raster::background_evidence, m)?)?;
     m.add_function(wrap_pyfunction!(raster::background_distortions, m)?)?;
+    m.add_function(wrap_pyfunction!(raster::guided_logit, m)?)?;
     m.add_function(wrap_pyfunction!(raster::gaussian_blur, m)?)?;
     m.add_function(wrap_pyfunction!(raster::isosurface, m)?)?;
     m.add_class::<icp::Target>()?;

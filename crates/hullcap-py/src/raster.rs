@@ -490,6 +490,66 @@ impl<'py> BackgroundTest<'py> {
     }
 }
 
+/// The log-odds of the model-guided silhouettes over a window of one view; see
+/// `hullcap._engine.pyi`.
+#[pyfunction]
+#[pyo3(signature = (evidence, image, origin, ramp, weights, colours=None))]
+pub(crate) fn guided_logit<'py>(
+    py: Python<'py>,
+    evidence: &Bound<'py, PyAny>,
+    image: &Bound<'py, PyAny>,
+    origin: (usize, usize),
+    ramp: &Bound<'py, PyAny>,
+    weights: (f64, f64, f64, f64, f64, f64),
+    colours: Option<(Bound<'py, PyAny>, usize)>,
+) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let (evidence, [height, width]) =
+        contiguous::<f32, 2>(evidence, "float32", "evidence", "(height, width)")?;
+    let (image, shape) = contiguous::<u8, 3>(image, "uint8", "image", "(height, width, 3)")?;
+    if shape != [height, width, 3] {
+        return Err(ArrayError::new_err(format!(
+            "image has the shape {shape:?}, the evidence ({height}, {width}): it must be ({height}, {width}, 3)"
+        )));
+    }
+    let (ramp, [rows, columns]) =
+        contiguous::<f32, 2>(ramp, "float32", "ramp", "(rows, columns)")?;
+    let table = match &colours {
+        Some((table, bins)) => Some((
+            contiguous::<f32, 1>(table, "float32", "colours' table", "(bins³,)")?.0,
+            *bins,
+        )),
+        None => None,
+    };
+    let (evidence_min, evidence_max, background, prior, colour, colour_limit) = weights;
+    let weights = hullcap_raster::LogitWeights {
+        evidence_min: evidence_min as f32,
+        evidence_max: evidence_max as f32,
+        background: background as f32,
+        prior: prior as f32,
+        colour: colour as f32,
+        colour_limit: colour_limit as f32,
+    };
+    let window = hullcap_raster::Window {
+        top: origin.0,
+        left: origin.1,
+        height: rows,
+        width: columns,
+    };
+    let colours = table.as_ref().map(|(t, bins)| hullcap_raster::ColourTable {
+        log_ratio: t.as_slice().unwrap_or(&[]),
+        bins: *bins,
+    });
+    let (evidence, image, ramp) = (
+        evidence.as_slice().unwrap_or(&[]),
+        image.as_slice().unwrap_or(&[]),
+        ramp.as_slice().unwrap_or(&[]),
+    );
+    let logit = detached(py, || {
+        hullcap_raster::guided_logit(evidence, image, width, window, ramp, colours, &weights)
+    })?;
+    self::image(py, logit, rows, columns)
+}
+
 /// A 3-D Gaussian blur of a grid of small whole numbers (an occupancy); see
 /// `hullcap._engine.pyi`.
 #[pyfunction]

@@ -10,7 +10,9 @@
 //! marks the same pixels without computing depths.
 //!
 //! [`background_evidence`] is Horprasert's statistical background test of one camera's
-//! image (`hullcap._silhouette`), its per-pixel arithmetic in one pass.
+//! image (`hullcap._silhouette`), its per-pixel arithmetic in one pass; [`guided_logit`]
+//! sums that evidence with the predicted model's prior and the subject's colours around
+//! the predicted person (`hullcap._guided`).
 //!
 //! Pixel (0, 0) is the centre of the top-left pixel (OpenCV's convention). A pixel is
 //! covered when its centre lies inside the triangle (edges shared by two triangles are
@@ -27,6 +29,7 @@
 
 mod background;
 mod carve;
+mod guided;
 mod isosurface;
 mod raster;
 mod smooth;
@@ -37,6 +40,7 @@ pub use carve::{
     BoxedDistance, Camera, CarveView, Carved, CutView, Verdict, carve, classify_cells,
     doubtful_points,
 };
+pub use guided::{ColourTable, LogitWeights, Window, guided_logit};
 pub use isosurface::{Isosurface, isosurface};
 pub use raster::{RasterError, Rendered, coverage, rasterize};
 pub use smooth::gaussian_blur;

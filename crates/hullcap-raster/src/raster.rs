@@ -61,6 +61,10 @@ pub enum RasterError {
         /// The model's pixels.
         pixels: usize,
     },
+    /// The window of the guided silhouettes' log-odds does not lie in the image, or an
+    /// array does not hold the values it should.
+    #[error("guided log-odds: {0}")]
+    BadWindow(String),
     /// A worker thread panicked.
     #[error(transparent)]
     Panicked(#[from] WorkerPanicked),
