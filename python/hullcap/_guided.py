@@ -228,17 +228,10 @@ class ColourModel:
         self.background += np.bincount(idx[background], minlength=self.bins**3)
         self._table = None
 
-    def log_ratio(self, image: np.ndarray) -> np.ndarray:
-        """log P(colour | subject) − log P(colour | background) per pixel (add-one
-        smoothed; 0 everywhere before anything was learnt)."""
-        table = self.table()
-        if table is None:
-            return np.zeros(image.shape[:2], np.float32)
-        return np.take(table, self._index(image))
-
     def table(self) -> np.ndarray | None:
-        """The log-ratio of :meth:`log_ratio` of each colour bin (bins³ float32, indexed
-        by a pixel's bins (c0·bins + c1)·bins + c2), or None before anything was learnt."""
+        """log P(colour | subject) − log P(colour | background) of each colour bin
+        (add-one smoothed; bins³ float32, indexed (c0·bins + c1)·bins + c2 by the bins of
+        a pixel's channels, ``value · bins // 256``), or None before anything was learnt."""
         if not self.ready:
             return None
         if self._table is None:
