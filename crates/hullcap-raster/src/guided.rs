@@ -145,13 +145,15 @@ fn check(
             evidence.len()
         ));
     }
-    if window.top + window.height > image_height || window.left + window.width > image_width {
+    if window.top.saturating_add(window.height) > image_height
+        || window.left.saturating_add(window.width) > image_width
+    {
         return bad(format!(
             "rows {}..{} and columns {}..{} do not lie in a {image_width}×{image_height} image",
             window.top,
-            window.top + window.height,
+            window.top.saturating_add(window.height),
             window.left,
-            window.left + window.width
+            window.left.saturating_add(window.width)
         ));
     }
     if ramp.len() != window.height * window.width {
@@ -277,8 +279,13 @@ mod tests {
             height: 2,
             width: 2,
         };
+        let overflowing = Window {
+            top: usize::MAX,
+            ..window
+        };
         for result in [
             call(&evidence, &image, beyond, &ramp, &table, 4),
+            call(&evidence, &image, overflowing, &ramp, &table, 4),
             call(&evidence[..19], &image, window, &ramp, &table, 4),
             call(&evidence, &image[..57], window, &ramp, &table, 4),
             call(&evidence, &image, window, &ramp[..3], &table, 4),
