@@ -511,8 +511,7 @@ pub(crate) fn guided_logit<'py>(
             "image has the shape {shape:?}, the evidence ({height}, {width}): it must be ({height}, {width}, 3)"
         )));
     }
-    let (ramp, [rows, columns]) =
-        contiguous::<f32, 2>(ramp, "float32", "ramp", "(rows, columns)")?;
+    let (ramp, [rows, columns]) = contiguous::<f32, 2>(ramp, "float32", "ramp", "(rows, columns)")?;
     let table = match &colours {
         Some((table, bins)) => Some((
             contiguous::<f32, 1>(table, "float32", "colours' table", "(bins³,)")?.0,
