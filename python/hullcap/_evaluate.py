@@ -44,7 +44,7 @@ def read_truth_joints(sequence_path) -> tuple[list[str], np.ndarray] | None:
     not readable ground truth."""
     from hullcap._files import NPZ_ERRORS
 
-    truth = next((Path(sequence_path) / t for t in TRUTHS if (Path(sequence_path) / t).is_file()), None)
+    truth = next((p for p in (Path(sequence_path) / t for t in TRUTHS) if p.is_file()), None)
     if truth is None:
         return None
     try:

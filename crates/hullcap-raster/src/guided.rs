@@ -76,7 +76,11 @@ pub fn guided_logit(
     colours: Option<ColourTable<'_>>,
     weights: &LogitWeights,
 ) -> Result<Vec<f32>, RasterError> {
-    check(evidence, image, image_width, window, ramp, colours, weights)?;
+    weights.check()?;
+    if let Some(c) = colours {
+        c.check()?;
+    }
+    window.check(evidence, image, image_width, ramp)?;
     // Each channel's value to its share of the colour's index: bin·bins² for the first.
     let luts = colours.map(|c| {
         let n = c.bins as u32;
@@ -114,66 +118,82 @@ pub fn guided_logit(
     Ok(out)
 }
 
-/// The errors of [`guided_logit`].
-fn check(
-    evidence: &[f32],
-    image: &[u8],
-    image_width: usize,
-    window: Window,
-    ramp: &[f32],
-    colours: Option<ColourTable<'_>>,
-    weights: &LogitWeights,
-) -> Result<(), RasterError> {
-    let bad = |what: String| Err(RasterError::BadWindow(what));
-    if !(weights.evidence_min <= weights.evidence_max && weights.colour_limit >= 0.0) {
-        return bad(format!(
-            "the evidence's bounds {}..{} and the colour's ±{} are not in order",
-            weights.evidence_min, weights.evidence_max, weights.colour_limit
-        ));
+fn bad<T>(what: String) -> Result<T, RasterError> {
+    Err(RasterError::BadWindow(what))
+}
+
+impl LogitWeights {
+    /// An error unless the bounds are numbers in order.
+    fn check(&self) -> Result<(), RasterError> {
+        if !(self.evidence_min <= self.evidence_max && self.colour_limit >= 0.0) {
+            return bad(format!(
+                "the evidence's bounds {}..{} and the colour's ±{} are not in order",
+                self.evidence_min, self.evidence_max, self.colour_limit
+            ));
+        }
+        Ok(())
     }
-    if image_width == 0 || !evidence.len().is_multiple_of(image_width) {
-        return bad(format!(
-            "evidence holds {} values, not rows of {image_width}",
-            evidence.len()
-        ));
+}
+
+impl ColourTable<'_> {
+    /// An error unless the table holds `bins³` values for 1 to 256 bins.
+    fn check(&self) -> Result<(), RasterError> {
+        if !(1..=256).contains(&self.bins) || self.log_ratio.len() != self.bins.pow(3) {
+            return bad(format!(
+                "a colour table of {} values for {} bins a channel (1 to 256 bins, bins³ values)",
+                self.log_ratio.len(),
+                self.bins
+            ));
+        }
+        Ok(())
     }
-    let image_height = evidence.len() / image_width;
-    if image.len() != 3 * evidence.len() {
-        return bad(format!(
-            "the image holds {} values, not three for each of the evidence's {}",
-            image.len(),
-            evidence.len()
-        ));
+}
+
+impl Window {
+    /// An error unless `evidence` is rows of `image_width` values, `image` three for
+    /// each of them, the window lies within those rows and `ramp` holds one value for
+    /// each of its pixels.
+    fn check(
+        &self,
+        evidence: &[f32],
+        image: &[u8],
+        image_width: usize,
+        ramp: &[f32],
+    ) -> Result<(), RasterError> {
+        if image_width == 0 || !evidence.len().is_multiple_of(image_width) {
+            return bad(format!(
+                "evidence holds {} values, not rows of {image_width}",
+                evidence.len()
+            ));
+        }
+        let image_height = evidence.len() / image_width;
+        if image.len() != 3 * evidence.len() {
+            return bad(format!(
+                "the image holds {} values, not three for each of the evidence's {}",
+                image.len(),
+                evidence.len()
+            ));
+        }
+        let (bottom, right) = (
+            self.top.saturating_add(self.height),
+            self.left.saturating_add(self.width),
+        );
+        if bottom > image_height || right > image_width {
+            return bad(format!(
+                "rows {}..{bottom} and columns {}..{right} do not lie in a {image_width}×{image_height} image",
+                self.top, self.left
+            ));
+        }
+        if ramp.len() != self.height * self.width {
+            return bad(format!(
+                "the ramp holds {} values, not one for each of the window's {}×{} pixels",
+                ramp.len(),
+                self.width,
+                self.height
+            ));
+        }
+        Ok(())
     }
-    if window.top.saturating_add(window.height) > image_height
-        || window.left.saturating_add(window.width) > image_width
-    {
-        return bad(format!(
-            "rows {}..{} and columns {}..{} do not lie in a {image_width}×{image_height} image",
-            window.top,
-            window.top.saturating_add(window.height),
-            window.left,
-            window.left.saturating_add(window.width)
-        ));
-    }
-    if ramp.len() != window.height * window.width {
-        return bad(format!(
-            "the ramp holds {} values, not one for each of the window's {}×{} pixels",
-            ramp.len(),
-            window.width,
-            window.height
-        ));
-    }
-    if let Some(c) = colours
-        && (!(1..=256).contains(&c.bins) || c.log_ratio.len() != c.bins.pow(3))
-    {
-        return bad(format!(
-            "a colour table of {} values for {} bins a channel (1 to 256 bins, bins³ values)",
-            c.log_ratio.len(),
-            c.bins
-        ));
-    }
-    Ok(())
 }
 
 #[cfg(test)]
