@@ -46,6 +46,8 @@ def test_each_kind_of_fault_raises_its_own_class(tmp_path):
         hullcap.FitOptions().replace(solver="newton")
     with pytest.raises(errors.OptionsError, match="FitOptions.coarse"):
         hullcap.FitOptions().replace(coarse=0)
+    with pytest.raises(errors.OptionsError, match="FitOptions.over_relaxation must be at least 1 and below 2"):
+        hullcap.FitOptions().replace(over_relaxation=2.0)
 
 
 def test_engine_errors_arrive_as_their_kind():

@@ -238,8 +238,9 @@ def test_a_search_ranks_at_the_resolution_of_the_stages():
 
 def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_finds(tmp_path, monkeypatch):
     """The person jumps inside the window tracked for the subject's model: its search fits
-    candidates as tracking does (one round, coarse stages), and the pose it finds is fitted
-    again with the window's own fit before it stands."""
+    candidates as tracking does (one round, coarse stages) but with the window's steps as
+    solved, not over-relaxed, and the pose it finds is fitted again with the window's own
+    fit before it stands."""
     seq_path, truth, _ = render(tmp_path / "seq", JUMP, (0.7, 0.7, 0.0))
     options = TrackerOptions(calibration_seconds=1.0)  # the window holds the jump
     calls, in_window = [], []
@@ -267,7 +268,9 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
     result = Tracker(Sequence(seq_path), options=options).run(tmp_path / "out", show_progress=False)
     window = [c for c in calls if c[1]]
     searches = [i for i, c in enumerate(window) if c[0] == "search"]
-    assert searches and all(window[i][2] is options.fit for i in searches)
+    as_tracking = options.fit.replace(over_relaxation=1.0)
+    assert options.calibration_fit.over_relaxation == 1.0 and as_tracking != options.fit
+    assert searches and all(window[i][2] == as_tracking for i in searches)
     refits = [i for i in searches if i + 1 < len(window) and window[i + 1][0] == "fit"
               and window[i + 1][2] is options.calibration_fit and window[i + 1][3] is window[i][3]]
     assert refits, window  # the pose the search found, fitted again with the window's fit

@@ -270,6 +270,11 @@ class FitOptions:
     """Coarse to fine: the hierarchy's stages pair every ``coarse``-th model point and a
     ``coarse``-th of the hull samples and reverse vertices; the final polish and the
     statistics use them all (1 = every stage on every point; hierarchical fits only)."""
+    over_relaxation: float
+    """A Levenberg–Marquardt step that goes on in the direction of its stage's last step
+    is taken this many times over (at least 1, below 2) when that still lowers the
+    energy at the iteration's pairs: ICP's crawl along the hull in fewer re-pairings
+    (docs/design.md §4). 1 (the default) = every step as solved, the paper's iteration."""
     inlier_distance: float
     threads: int | None
     def __init__(self, **changes: object) -> None: ...

@@ -459,11 +459,14 @@ class Tracker:
         # refined one will (d01 from colour frames fell under `min_quality` in its first
         # bend and never came back, which left two thirds of the window unused and the
         # knees placed from three frames; docs/accuracy.md). Only the frames whose fits
-        # reach `min_quality` build the model.
+        # reach `min_quality` build the model. Every fit here takes its steps as solved
+        # (`calibration_fit`'s over-relaxation, the search's too): the knee search turns on
+        # small differences between these poses (`TrackerOptions.fit`).
         strict = replace(self.options, fit=self.options.calibration_fit, quick_fit=None, girdle_fit=None,
                          recheck_margin=None, search=replace(self.options.search, girdle_tolerance=0.0),
                          hull_doubt=None, min_quality=0.0)
-        state = TrackingState(subject.model, strict, subject.fit, search_fit=self.options.fit)
+        search_fit = self.options.fit.replace(over_relaxation=self.options.calibration_fit.over_relaxation)
+        state = TrackingState(subject.model, strict, subject.fit, search_fit=search_fit)
         for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
             self._track(state, window, frame)
         stands = window.quality >= self.options.min_quality

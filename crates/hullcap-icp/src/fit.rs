@@ -412,6 +412,7 @@ impl Fitter<'_> {
     fn stage(&mut self, params: &mut Params, active: &[usize]) -> Result<(), IcpError> {
         let mut damping = 1e-3;
         let mut previous_direction: Option<(DVector<f64>, DVector<f64>)> = None;
+        let mut previous_step: Option<DVector<f64>> = None;
         for _ in 0..self.options.iterations {
             self.iterations += 1;
             let (pose, found, sigma) = self.pairs(params)?;
@@ -446,12 +447,29 @@ impl Fitter<'_> {
             };
             let accepted = match self.options.solver {
                 Solver::LevenbergMarquardt => {
-                    levenberg_marquardt(&h, &g, e0, &mut damping, |delta| {
+                    let mut solved = None;
+                    let plain = levenberg_marquardt(&h, &g, e0, &mut damping, |delta| {
                         let candidate =
                             params.stepped(self.problem.rig.skeleton(), active, delta.as_slice());
                         let e1 = energy_at(&candidate)?;
+                        solved = Some(delta.clone());
                         Ok((candidate, e1))
-                    })?
+                    })?;
+                    match (plain, solved) {
+                        (Some(plain), Some(delta)) => {
+                            let relaxed = self.over_relaxed(
+                                params,
+                                active,
+                                &delta,
+                                previous_step.as_ref(),
+                                e0,
+                                energy_at,
+                            )?;
+                            previous_step = Some(delta);
+                            Some(relaxed.unwrap_or(plain))
+                        }
+                        (plain, _) => plain,
+                    }
                 }
                 Solver::ConjugateGradient => {
                     let mut direction = -&g;
@@ -501,6 +519,32 @@ impl Fitter<'_> {
             }
         }
         Ok(())
+    }
+
+    /// The pose `FitOptions::over_relaxation` times the accepted step `delta` away from
+    /// `params`, with its energy at the iteration's pairs (`energy_at`), when the step
+    /// goes on in the direction of the stage's `previous` one and that energy is still
+    /// below the iteration's `e0`; `None` otherwise, and always with a factor of 1.
+    fn over_relaxed(
+        &self,
+        params: &Params,
+        active: &[usize],
+        delta: &DVector<f64>,
+        previous: Option<&DVector<f64>>,
+        e0: f64,
+        energy_at: impl Fn(&Params) -> Result<f64, IcpError>,
+    ) -> Result<Option<(Params, f64)>, IcpError> {
+        let factor = self.options.over_relaxation;
+        if factor <= 1.0 || !previous.is_some_and(|p| p.dot(delta) > 0.0) {
+            return Ok(None);
+        }
+        let over = params.stepped(
+            self.problem.rig.skeleton(),
+            active,
+            (factor * delta).as_slice(),
+        );
+        let e = energy_at(&over)?;
+        Ok((e < e0).then_some((over, e)))
     }
 }
 
@@ -872,6 +916,14 @@ mod tests {
             },
             FitOptions {
                 coarse: 0,
+                ..FitOptions::default()
+            },
+            FitOptions {
+                over_relaxation: 2.0,
+                ..FitOptions::default()
+            },
+            FitOptions {
+                over_relaxation: 0.5,
                 ..FitOptions::default()
             },
         ] {

@@ -69,6 +69,15 @@ pub struct FitOptions {
     /// which fewer points find as well for less, and the polish then settles it on every
     /// point. 1 = every stage on every point. Hierarchical fits only.
     pub coarse: usize,
+    /// Over-relaxation of the Levenberg–Marquardt steps: a step that goes on in the
+    /// direction of the stage's last step (a positive dot product) is taken this many
+    /// times over when the pose reached still has a lower energy at the iteration's pairs
+    /// than the pose it left; otherwise the step as solved. Between re-pairings a step
+    /// solves for pairs that hold the model back where it slides along the hull, and ICP
+    /// then crawls towards its minimum in steps that each point the way of the last; a
+    /// longer step in that direction is successive over-relaxation, which converges for
+    /// factors below 2. 1 (the default) = every step as solved, the paper's iteration.
+    pub over_relaxation: f64,
     /// Distance (m) under which a pair counts as an inlier in the statistics.
     pub inlier_distance: f64,
     /// Worker threads (`None` = all cores).
@@ -94,6 +103,7 @@ impl Default for FitOptions {
             hierarchical: true,
             polish: true,
             coarse: 1,
+            over_relaxation: 1.0,
             inlier_distance: 0.02,
             threads: None,
         }
@@ -148,6 +158,13 @@ impl FitOptions {
             if value == 0 {
                 return bad(name, "at least 1", 0.0);
             }
+        }
+        if !(1.0..2.0).contains(&self.over_relaxation) {
+            return bad(
+                "over_relaxation",
+                "at least 1 and below 2",
+                self.over_relaxation,
+            );
         }
         if self.threads == Some(0) {
             return bad("threads", "at least 1", 0.0);

@@ -27,6 +27,7 @@ pub(crate) struct FitOptions {
     hierarchical: bool,
     polish: bool,
     coarse: usize,
+    over_relaxation: f64,
     inlier_distance: f64,
     threads: Option<usize>,
 }
@@ -55,6 +56,7 @@ impl Default for FitOptions {
             hierarchical: e.hierarchical,
             polish: e.polish,
             coarse: e.coarse,
+            over_relaxation: e.over_relaxation,
             inlier_distance: e.inlier_distance,
             threads: e.threads,
         }
@@ -118,6 +120,7 @@ impl FitOptions {
             hierarchical: self.hierarchical,
             polish: self.polish,
             coarse: self.coarse,
+            over_relaxation: self.over_relaxation,
             inlier_distance: self.inlier_distance,
             threads: self.threads,
         };
@@ -149,6 +152,7 @@ impl FitOptions {
         d.set_item("hierarchical", self.hierarchical)?;
         d.set_item("polish", self.polish)?;
         d.set_item("coarse", self.coarse)?;
+        d.set_item("over_relaxation", self.over_relaxation)?;
         d.set_item("inlier_distance", self.inlier_distance)?;
         d.set_item("threads", self.threads)?;
         Ok(d)
