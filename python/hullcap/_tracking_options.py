@@ -82,9 +82,9 @@ class TrackerOptions:
             search uses it, and so does tracking unless `quick_fit` is set; the first
             seconds tracked for the subject's model use `calibration_fit`. Its steps,
             and the girdle fit's, are over-relaxed by :data:`OVER_RELAXATION` (design.md
-            §4): over the development set with each sequence's model given, 12 % fewer
-            iterations (13 % in full) for joints as accurate (colour 20.35 / 13.22 →
-            20.26 / 13.17 mm, exact 19.34 / 12.43 → 19.25 / 12.28; with 2, d04 from
+            §4): over the development set with each sequence's model given, 13 % fewer
+            iterations for joints as accurate or better (colour 20.35 / 13.22 →
+            20.12 / 12.96 mm, exact 19.34 / 12.43 → 19.22 / 12.31; with 2, d04 from
             colour frames 1.1 mm worse). The subject's own fits stay plain: over-relaxed
             there, they moved the knee search's verdicts (d01's thigh from colour frames
             +10 %).
