@@ -459,9 +459,9 @@ class Tracker:
         # refined one will (d01 from colour frames fell under `min_quality` in its first
         # bend and never came back, which left two thirds of the window unused and the
         # knees placed from three frames; docs/accuracy.md). Only the frames whose fits
-        # reach `min_quality` build the model. Every fit here takes its steps as solved
-        # (`calibration_fit`'s over-relaxation, the search's too): the knee search turns on
-        # small differences between these poses (`TrackerOptions.fit`).
+        # reach `min_quality` build the model. Every fit here, the search's too, steps as
+        # `calibration_fit` does (plain by default: the knee search turns on small
+        # differences between these poses; `TrackerOptions.fit`).
         strict = replace(self.options, fit=self.options.calibration_fit, quick_fit=None, girdle_fit=None,
                          recheck_margin=None, search=replace(self.options.search, girdle_tolerance=0.0),
                          hull_doubt=None, min_quality=0.0)
