@@ -63,7 +63,7 @@ pub struct Window {
 /// `ramp` covers the window alone; without `colours` the colour term is left out.
 ///
 /// # Errors
-/// [`RasterError::BadWindow`] when the window does not lie inside the image, an array
+/// [`RasterError::BadGuidedInput`] when the window does not lie inside the image, an array
 /// does not hold the values it should (`evidence` a multiple of `image_width` values,
 /// `image` three times as many, `ramp` one a pixel of the window, the colour table `bins³`),
 /// or a bound of the weights is NaN or the evidence's lower bound exceeds its upper.
@@ -119,7 +119,7 @@ pub fn guided_logit(
 }
 
 fn bad<T>(what: String) -> Result<T, RasterError> {
-    Err(RasterError::BadWindow(what))
+    Err(RasterError::BadGuidedInput(what))
 }
 
 impl LogitWeights {
@@ -313,7 +313,7 @@ mod tests {
             call(&evidence, &image, window, &ramp, &table, 0),
         ] {
             assert!(
-                matches!(result, Err(RasterError::BadWindow(_))),
+                matches!(result, Err(RasterError::BadGuidedInput(_))),
                 "{result:?}"
             );
         }
@@ -334,7 +334,7 @@ mod tests {
         ] {
             let result = guided_logit(&evidence, &image, 5, window, &ramp, None, &weights);
             assert!(
-                matches!(result, Err(RasterError::BadWindow(_))),
+                matches!(result, Err(RasterError::BadGuidedInput(_))),
                 "{result:?}"
             );
         }

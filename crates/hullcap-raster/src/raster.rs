@@ -61,10 +61,11 @@ pub enum RasterError {
         /// The model's pixels.
         pixels: usize,
     },
-    /// The window of the guided silhouettes' log-odds does not lie in the image, or an
-    /// array does not hold the values it should.
+    /// The guided silhouettes' log-odds were asked for a window that does not lie in the
+    /// image, given an array that does not hold the values it should, or bounds that are
+    /// NaN or out of order.
     #[error("guided log-odds: {0}")]
-    BadWindow(String),
+    BadGuidedInput(String),
     /// A worker thread panicked.
     #[error(transparent)]
     Panicked(#[from] WorkerPanicked),
