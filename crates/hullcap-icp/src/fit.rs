@@ -447,16 +447,16 @@ impl Fitter<'_> {
             };
             let accepted = match self.options.solver {
                 Solver::LevenbergMarquardt => {
-                    let mut solved = None;
+                    // The accepted step comes back with its pose: it is what the
+                    // over-relaxation lengthens and what the next step is compared with.
                     let plain = levenberg_marquardt(&h, &g, e0, &mut damping, |delta| {
                         let candidate =
                             params.stepped(self.problem.rig.skeleton(), active, delta.as_slice());
                         let e1 = energy_at(&candidate)?;
-                        solved = Some(delta.clone());
-                        Ok((candidate, e1))
+                        Ok(((candidate, delta.clone()), e1))
                     })?;
-                    match (plain, solved) {
-                        (Some(plain), Some(delta)) => {
+                    match plain {
+                        Some(((candidate, delta), e1)) => {
                             let relaxed = self.over_relaxed(
                                 params,
                                 active,
@@ -466,9 +466,9 @@ impl Fitter<'_> {
                                 energy_at,
                             )?;
                             previous_step = Some(delta);
-                            Some(relaxed.unwrap_or(plain))
+                            Some(relaxed.unwrap_or((candidate, e1)))
                         }
-                        (plain, _) => plain,
+                        None => None,
                     }
                 }
                 Solver::ConjugateGradient => {
