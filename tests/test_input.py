@@ -685,6 +685,39 @@ def test_sequence_errors_name_the_file(sequence, tmp_path):
         Sequence(bad)
 
 
+@pytest.mark.parametrize("suffix, fourcc", [(".mp4", "mp4v"), (".avi", "MJPG"), (".mov", "mp4v"), (".MKV", "MJPG")])
+def test_a_camera_filmed_as_a_video_reads_as_its_frames_in_any_common_container(sequence, tmp_path, suffix, fourcc):
+    """cam0's frames written as one video in `suffix`'s container: the same frame count,
+    each frame within the codec's loss of the image it was made from, its size taken by
+    `calib import --images` too; a second video for the same camera is refused, naming
+    both; a file of another kind in videos/ is no video of a camera."""
+    from hullcap._rig import image_sizes
+
+    seq_path = tmp_path / "seq"
+    shutil.copytree(sequence, seq_path, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    frames = sorted((seq_path / "frames" / "cam0").glob("*.png"))[:4]
+    originals = [cv2.imread(str(f)) for f in frames]
+    (seq_path / "videos").mkdir()
+    video = seq_path / "videos" / f"cam0{suffix}"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*fourcc), 30, originals[0].shape[1::-1])
+    assert writer.isOpened(), f"this OpenCV cannot write {suffix}"
+    for image in originals:
+        writer.write(image)
+    writer.release()
+    shutil.rmtree(seq_path / "frames" / "cam0")
+    (seq_path / "videos" / "notes.txt").write_text("filmed on a Tuesday")
+    seq = Sequence(seq_path)
+    assert seq.frame_counts()["cam0"] == len(originals)
+    for i in (2, 0, 3):  # out of order: the reader seeks
+        got = seq.image(i, "cam0").astype(int)
+        assert np.abs(got - originals[i]).mean() < 4.0
+    seq.close()
+    assert image_sizes(seq_path)["cam0"] == (originals[0].shape[1], originals[0].shape[0])
+    shutil.copy(video, seq_path / "videos" / "cam0.m4v")
+    with pytest.raises(ValueError, match=r"camera 'cam0' has 2 videos \(.*cam0\.m4v.*\); keep one"):
+        Sequence(seq_path)
+
+
 def test_a_hole_in_one_view_is_overruled_where_the_others_and_the_prior_agree():
     """An arm (a horizontal capsule) that one camera's silhouette misses: the strict hull
     loses it, a hull that lets one view be overruled keeps it; with a prior that covers

@@ -18,6 +18,7 @@ import numpy as np
 from hullcap._cameras import Cameras
 from hullcap._files import atomic_write
 from hullcap._hull import axes_meeting_point, capture_volume, format_bounds
+from hullcap._sequence import VIDEO_SUFFIXES
 from hullcap.errors import CalibrationError, SequenceError
 
 __all__ = ["describe", "draw_top_view", "import_calibration", "image_sizes", "surround", "FORMATS", "MIN_SURROUND"]
@@ -54,7 +55,8 @@ def image_sizes(folder) -> dict[str, tuple[int, int]]:
             if image is None:
                 raise SequenceError(f"{first}: cannot be read as an image")
             sizes[sub.name] = (image.shape[1], image.shape[0])
-    for video in sorted((folder / "videos").glob("*.*")) if (folder / "videos").is_dir() else []:
+    videos = sorted((folder / "videos").iterdir()) if (folder / "videos").is_dir() else []
+    for video in (v for v in videos if v.suffix.lower() in VIDEO_SUFFIXES):
         cap = cv2.VideoCapture(str(video))
         ok, image = cap.read()
         cap.release()

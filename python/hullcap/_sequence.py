@@ -22,12 +22,17 @@ from hullcap._cameras import Cameras
 from hullcap._files import read_document
 from hullcap.errors import SequenceError, ViewError
 
-__all__ = ["Sequence"]
+__all__ = ["Sequence", "VIDEO_SUFFIXES"]
+
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v")
+"""Containers ``videos/<cam>.*`` may be in: those the cameras and recorders of labs write
+that OpenCV's FFmpeg reads (its codecs decide what is inside them)."""
 
 
 class Sequence:
     """A sequence folder: ``cameras.json``, ``meta.json``, ``frames/<cam>/`` or
-    ``videos/<cam>.mp4``, ``background/<cam>.png``, optional ``silhouettes/<cam>/``."""
+    ``videos/<cam>.mp4`` (or another of :data:`VIDEO_SUFFIXES`), ``background/<cam>.png``,
+    optional ``silhouettes/<cam>/``."""
 
     def __init__(self, path):
         self.path = Path(path)
@@ -49,15 +54,34 @@ class Sequence:
         self.n_frames = int(frames)
         self._videos: dict[str, cv2.VideoCapture] = {}
         self._video_pos: dict[str, int] = {}
+        self._video_paths = self._find_videos()
         for cam in self.cameras:
             has_frames = (self.path / "frames" / cam.name).is_dir()
-            has_video = (self.path / "videos" / f"{cam.name}.mp4").is_file()
             has_masks = (self.path / "silhouettes" / cam.name).is_dir()
-            if not (has_frames or has_video or has_masks):
+            if not (has_frames or cam.name in self._video_paths or has_masks):
                 raise SequenceError(f"{self.path}: camera {cam.name!r} has no frames/{cam.name}/, "
-                                 f"videos/{cam.name}.mp4 or silhouettes/{cam.name}/")
+                                    f"videos/{cam.name}.mp4 (or {', '.join(VIDEO_SUFFIXES[1:])}) "
+                                    f"or silhouettes/{cam.name}/")
             if has_masks:
                 self._check_mask_size(cam)
+
+    def _find_videos(self) -> dict[str, Path]:
+        """Each camera's video in ``videos/``, by camera name; two for one camera (say
+        ``cam0.mp4`` and ``cam0.avi``) are an error naming both, since either could be the
+        take."""
+        folder = self.path / "videos"
+        if not folder.is_dir():
+            return {}
+        names = {cam.name for cam in self.cameras}
+        found: dict[str, list[Path]] = {}
+        for path in sorted(folder.iterdir()):
+            if path.suffix.lower() in VIDEO_SUFFIXES and path.stem in names and path.is_file():
+                found.setdefault(path.stem, []).append(path)
+        for name, paths in found.items():
+            if len(paths) > 1:
+                raise SequenceError(f"{folder}: camera {name!r} has {len(paths)} videos "
+                                    f"({', '.join(p.name for p in paths)}); keep one")
+        return {name: paths[0] for name, paths in found.items()}
 
     def _check_mask_size(self, cam) -> None:
         """Masks of another size than the camera's images are a mistake for the whole
@@ -98,11 +122,12 @@ class Sequence:
         cam = self.cameras[camera]
         png = self.path / "frames" / cam.name / f"{frame:06d}.png"
         jpg = png.with_suffix(".jpg")
-        if png.is_file() or jpg.is_file() or not (self.path / "videos" / f"{cam.name}.mp4").is_file():
+        video = self._video_paths.get(cam.name)
+        if png.is_file() or jpg.is_file() or video is None:
             path = png if png.is_file() or not jpg.is_file() else jpg
             img = self._read(path, cam, colour=True)
         else:
-            path, img = self.path / "videos" / f"{cam.name}.mp4", self._video_frame(cam, frame)
+            path, img = video, self._video_frame(cam, frame)
         if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
             raise ViewError(path, f"blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
         return img
@@ -128,8 +153,8 @@ class Sequence:
         counts = {}
         for cam in self.cameras:
             folder = self.path / ("silhouettes" if silhouettes else "frames") / cam.name
-            video = self.path / "videos" / f"{cam.name}.mp4"
-            if folder.is_dir() or silhouettes or not video.is_file():
+            video = self._video_paths.get(cam.name)
+            if folder.is_dir() or silhouettes or video is None:
                 counts[cam.name] = len({p.stem for p in folder.iterdir() if numbered.match(p.name)}) \
                     if folder.is_dir() else 0
             else:
@@ -176,7 +201,7 @@ class Sequence:
         return img
 
     def _video_frame(self, cam, frame: int) -> np.ndarray:
-        path = self.path / "videos" / f"{cam.name}.mp4"
+        path = self._video_paths[cam.name]
         cap = self._videos.get(cam.name)
         if cap is None:
             cap = cv2.VideoCapture(str(path))
