@@ -16,7 +16,7 @@ from hullcap._render import render_silhouette
 from hullcap._sequence import Sequence
 from hullcap._silhouette import FOREGROUND_EVIDENCE, StatisticalBackground, Thresholds, background_model
 from hullcap._synth import synthesize
-from hullcap.errors import ArrayError
+from hullcap.errors import ArrayError, ViewError
 
 
 def distorted_camera():
@@ -715,6 +715,45 @@ def test_a_camera_filmed_as_a_video_reads_as_its_frames_in_any_common_container(
     assert image_sizes(seq_path)["cam0"] == (originals[0].shape[1], originals[0].shape[0])
     shutil.copy(video, seq_path / "videos" / "cam0.m4v")
     with pytest.raises(ValueError, match=r"camera 'cam0' has 2 videos \(.*cam0\.m4v.*\); keep one"):
+        Sequence(seq_path)
+
+
+def test_a_sequence_of_videos_needs_no_meta_json(sequence, tmp_path):
+    """Every camera a video and no meta.json: the videos' frame rate and their most frames
+    (one video a frame short leaves that view out of the last frame); rates that disagree,
+    or a camera of images, ask for meta.json, saying why."""
+    seq_path = tmp_path / "seq"
+    shutil.copytree(sequence, seq_path, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    names = [c.name for c in Sequence(seq_path).cameras]
+    (seq_path / "meta.json").unlink()
+    (seq_path / "videos").mkdir()
+
+    originals = {name: [cv2.imread(str(seq_path / "frames" / name / f"{f:06d}.png")) for f in range(6)]
+                 for name in names}
+
+    def film(name, frames, fps):
+        images = originals[name][:frames]
+        writer = cv2.VideoWriter(str(seq_path / "videos" / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), fps,
+                                 images[0].shape[1::-1])
+        for image in images:
+            writer.write(image)
+        writer.release()
+
+    for i, name in enumerate(names[:-1]):
+        film(name, 5 if i == 0 else 6, 25)
+    with pytest.raises(ValueError, match=rf"meta.json: missing; .* every camera is a video: not {names[-1]}\)"):
+        Sequence(seq_path)
+    film(names[-1], 6, 25)
+    for name in names:
+        shutil.rmtree(seq_path / "frames" / name)
+    seq = Sequence(seq_path)
+    assert (seq.fps, len(seq)) == (25.0, 6)
+    assert seq.frame_counts()[names[0]] == 5
+    with pytest.raises(ViewError, match=rf"no frame 5 \(camera '{names[0]}'\)"):
+        seq.image(5, names[0])
+    seq.close()
+    film(names[-1], 6, 30)
+    with pytest.raises(ValueError, match=r"frame rates do not agree \(.*25, .* 30 frames/s\)"):
         Sequence(seq_path)
 
 

@@ -30,9 +30,9 @@ that OpenCV's FFmpeg reads (its codecs decide what is inside them)."""
 
 
 class Sequence:
-    """A sequence folder: ``cameras.json``, ``meta.json``, ``frames/<cam>/`` or
-    ``videos/<cam>.mp4`` (or another of :data:`VIDEO_SUFFIXES`), ``background/<cam>.png``,
-    optional ``silhouettes/<cam>/``."""
+    """A sequence folder: ``cameras.json``, ``meta.json`` (optional when every camera is a
+    video), ``frames/<cam>/`` or ``videos/<cam>.mp4`` (or another of
+    :data:`VIDEO_SUFFIXES`), ``background/<cam>.png``, optional ``silhouettes/<cam>/``."""
 
     def __init__(self, path):
         self.path = Path(path)
@@ -41,8 +41,9 @@ class Sequence:
         if not (self.path / "cameras.json").is_file():
             raise SequenceError(f"{self.path}: missing cameras.json")
         self.cameras = Cameras.load(self.path / "cameras.json")
+        self._video_paths = self._find_videos()
         meta_path = self.path / "meta.json"
-        meta = read_document(meta_path, SequenceError)
+        meta = read_document(meta_path, SequenceError) if meta_path.is_file() else self._meta_from_videos(meta_path)
         try:
             self.fps = float(meta["fps"])
             frames = float(meta["frames"])
@@ -54,7 +55,6 @@ class Sequence:
         self.n_frames = int(frames)
         self._videos: dict[str, cv2.VideoCapture] = {}
         self._video_pos: dict[str, int] = {}
-        self._video_paths = self._find_videos()
         for cam in self.cameras:
             has_frames = (self.path / "frames" / cam.name).is_dir()
             has_masks = (self.path / "silhouettes" / cam.name).is_dir()
@@ -82,6 +82,30 @@ class Sequence:
                 raise SequenceError(f"{folder}: camera {name!r} has {len(paths)} videos "
                                     f"({', '.join(p.name for p in paths)}); keep one")
         return {name: paths[0] for name, paths in found.items()}
+
+    def _meta_from_videos(self, meta_path: Path) -> dict:
+        """``meta.json``'s numbers for a sequence without one whose every camera is a
+        video: the videos' frame rate, when they agree to 0.1 %, and the most frames any
+        of them has (a shorter one leaves its view out of the frames it lacks)."""
+        missing = [cam.name for cam in self.cameras if cam.name not in self._video_paths]
+        if missing:
+            raise SequenceError(f"{meta_path}: missing; write the frame rate and the number of frames, "
+                                f'{{"fps": 30, "frames": 240}} (it can be left out only when every camera '
+                                f"is a video: not {', '.join(missing)})")
+        rates, counts = {}, {}
+        for name, path in self._video_paths.items():
+            cap = cv2.VideoCapture(str(path))
+            if not cap.isOpened():
+                raise SequenceError(f"{path}: not a readable video (camera {name!r}), and no meta.json says "
+                                    f"how long the sequence is")
+            rates[name], counts[name] = cap.get(cv2.CAP_PROP_FPS), int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+            cap.release()
+        fps = float(np.median(list(rates.values())))
+        if not fps > 0 or any(abs(r - fps) > 1e-3 * fps for r in rates.values()):
+            said = ", ".join(f"{n} {r:g}" for n, r in rates.items())
+            raise SequenceError(f"{meta_path}: missing, and the videos' frame rates do not agree ({said} frames/s): "
+                                f'write the take\'s own, {{"fps": …, "frames": …}}')
+        return {"fps": fps, "frames": max(counts.values())}
 
     def _check_mask_size(self, cam) -> None:
         """Masks of another size than the camera's images are a mistake for the whole
