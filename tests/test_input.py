@@ -757,6 +757,60 @@ def test_a_sequence_of_videos_needs_no_meta_json(sequence, tmp_path):
         Sequence(seq_path)
 
 
+@pytest.mark.parametrize("form", ["folder", "video"])
+def test_a_clip_of_the_empty_room_teaches_the_background_model_what_flickers(sequence, tmp_path, form):
+    """cam0's background as a clip of the empty room in which a screen's colour swings
+    between red and blue by ±20 grey levels: the model learnt from the clip keeps the
+    screen as background in a frame where it is at its bluest, the model of one image
+    does not; at most `most` frames are read, spread over the clip; two backgrounds for
+    one camera are refused, naming both."""
+    seq_path = tmp_path / "seq"
+    shutil.copytree(sequence, seq_path, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    still = cv2.imread(str(seq_path / "background" / "cam0.png"))
+    rng = np.random.default_rng(7)
+    screen = (slice(40, 90), slice(30, 110))
+
+    def frame(level):
+        img = still.astype(float) + rng.normal(0, 2.0, still.shape)
+        img[screen + (0,)] += level  # blue up, red down: the same brightness, another hue
+        img[screen + (2,)] -= level
+        return np.clip(img, 0, 255).astype(np.uint8)
+
+    levels = 20 * np.sin(np.linspace(0, 6 * np.pi, 24))
+    clip = [frame(level) for level in levels]
+    if form == "folder":
+        (seq_path / "background" / "cam0").mkdir()
+        for i, img in enumerate(clip):
+            cv2.imwrite(str(seq_path / "background" / "cam0" / f"{i:06d}.png"), img)
+    else:
+        writer = cv2.VideoWriter(str(seq_path / "background" / "cam0.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30,
+                                 still.shape[1::-1])
+        for img in clip:
+            writer.write(img)
+        writer.release()
+    with pytest.raises(ValueError, match=r"camera 'cam0' has 2 backgrounds \(cam0.png, cam0(/|\.avi)?"):
+        Sequence(seq_path).backgrounds("cam0")
+    (seq_path / "background" / "cam0.png").unlink()
+    seq = Sequence(seq_path)
+    few = seq.backgrounds("cam0", most=5)
+    assert len(few) == 5
+    tolerance = 0 if form == "folder" else 6  # MJPG's loss
+    assert np.abs(few[0].astype(int) - clip[0]).mean() <= tolerance
+    assert np.abs(few[-1].astype(int) - clip[-1]).mean() <= tolerance
+    learnt = StatisticalBackground(seq.backgrounds("cam0"))
+    assert len(seq.backgrounds("cam0")) == 24
+    one = StatisticalBackground(seq.backgrounds("cam0")[0])
+    bluest = frame(20.0)
+    on_screen = lambda model: (model.mask(bluest)[screen] > 0).mean()  # noqa: E731
+    assert on_screen(one) > 0.5 and on_screen(learnt) < 0.05
+    # The image the rest of the pipeline shows for the background: the clip's mean.
+    assert np.abs(seq.background("cam0").astype(int)[screen] - still[screen]).mean() < 12
+    shutil.rmtree(seq_path / "background" / "cam0", ignore_errors=True)
+    (seq_path / "background" / "cam0.avi").unlink(missing_ok=True)
+    with pytest.raises(ViewError, match=r"cam0.png: missing \(camera 'cam0'; nor is there a clip"):
+        seq.backgrounds("cam0")
+
+
 def test_a_hole_in_one_view_is_overruled_where_the_others_and_the_prior_agree():
     """An arm (a horizontal capsule) that one camera's silhouette misses: the strict hull
     loses it, a hull that lets one view be overruled keeps it; with a prior that covers

@@ -22,17 +22,23 @@ from hullcap._cameras import Cameras
 from hullcap._files import read_document
 from hullcap.errors import SequenceError, ViewError
 
-__all__ = ["Sequence", "VIDEO_SUFFIXES"]
+__all__ = ["Sequence", "VIDEO_SUFFIXES", "BACKGROUND_FRAMES"]
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v")
 """Containers ``videos/<cam>.*`` may be in: those the cameras and recorders of labs write
 that OpenCV's FFmpeg reads (its codecs decide what is inside them)."""
 
+BACKGROUND_FRAMES = 30
+"""The most frames of a background clip :meth:`Sequence.backgrounds` reads: enough for a
+standard deviation per pixel within about 13 % of its own (1/√(2n)), and a second of
+30 frames/s, so that building the model takes no longer than tracking a few frames."""
+
 
 class Sequence:
     """A sequence folder: ``cameras.json``, ``meta.json`` (optional when every camera is a
     video), ``frames/<cam>/`` or ``videos/<cam>.mp4`` (or another of
-    :data:`VIDEO_SUFFIXES`), ``background/<cam>.png``, optional ``silhouettes/<cam>/``."""
+    :data:`VIDEO_SUFFIXES`), ``background/<cam>.png`` (or a clip of the empty scene,
+    :meth:`backgrounds`), optional ``silhouettes/<cam>/``."""
 
     def __init__(self, path):
         self.path = Path(path)
@@ -131,9 +137,68 @@ class Sequence:
         return all((self.path / "silhouettes" / c.name).is_dir() for c in self.cameras)
 
     def background(self, camera) -> np.ndarray:
-        """The empty-scene image of `camera` (name or index), (H, W, 3) uint8 BGR."""
+        """The empty scene as `camera` (name or index) sees it, (H, W, 3) uint8 BGR: its
+        background image, or the per-pixel mean of its background clip's frames."""
+        images = self.backgrounds(camera)
+        if len(images) == 1:
+            return images[0]
+        return np.rint(np.mean(images, axis=0)).astype(np.uint8)
+
+    def backgrounds(self, camera, most: int = BACKGROUND_FRAMES) -> list[np.ndarray]:
+        """The empty scene's frames of `camera` (name or index), (H, W, 3) uint8 BGR each:
+        ``background/<cam>.png`` (or ``.jpg``), one image; or a clip of the empty room,
+        ``background/<cam>/`` (numbered images) or ``background/<cam>.mp4`` (or another
+        of :data:`VIDEO_SUFFIXES`), of which at most `most` frames spread evenly over it.
+        From a clip Horprasert's model learns how much each pixel varies (flicker, sensor
+        noise, a monitor in the room); from one image only the noise it assumes
+        (``StatisticalBackground.noise_floor``). A ViewError when the camera has none, or
+        a frame cannot be used; a SequenceError when it has more than one of them."""
         cam = self.cameras[camera]
-        return self._read(self.path / "background" / f"{cam.name}.png", cam, colour=True)
+        folder = self.path / "background"
+        found = [p for p in (folder / f"{cam.name}.png", folder / f"{cam.name}.jpg", folder / cam.name)
+                 if p.exists()]
+        if folder.is_dir():
+            found += sorted(p for p in folder.iterdir()
+                            if p.stem == cam.name and p.suffix.lower() in VIDEO_SUFFIXES and p.is_file())
+        if len(found) > 1:
+            raise SequenceError(f"{folder}: camera {cam.name!r} has {len(found)} backgrounds "
+                                f"({', '.join(p.name for p in found)}); keep one")
+        if not found:
+            raise ViewError(folder / f"{cam.name}.png", f"missing (camera {cam.name!r}; nor is there a clip, "
+                                                        f"background/{cam.name}/ or background/{cam.name}.mp4)")
+        (path,) = found
+        if path.suffix.lower() in (".png", ".jpg"):
+            return [self._read(path, cam, colour=True)]
+        if path.is_dir():
+            numbered = re.compile(r"^\d{6}\.(png|jpg)$")
+            files = sorted(p for p in path.iterdir() if numbered.match(p.name))
+            if not files:
+                raise ViewError(path, f"no numbered images (000000.png …) of the empty scene (camera {cam.name!r})")
+            return [self._read(files[i], cam, colour=True) for i in _spread(len(files), most)]
+        return self._clip(path, cam, most)
+
+    def _clip(self, path: Path, cam, most: int) -> list[np.ndarray]:
+        """At most `most` frames of the video `path`, spread evenly over it."""
+        cap = cv2.VideoCapture(str(path))
+        try:
+            n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
+            if n <= 0:
+                raise ViewError(path, f"not a readable video (camera {cam.name!r})")
+            images = []
+            for i in _spread(n, most):
+                cap.set(cv2.CAP_PROP_POS_FRAMES, i)
+                ok, img = cap.read()
+                if not ok:
+                    break  # a container that counts more frames than it holds
+                if img.shape[:2] != (cam.height, cam.width):
+                    raise ViewError(path, f"video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is "
+                                          f"calibrated for {cam.width}×{cam.height}", wrong_size=True)
+                images.append(img)
+        finally:
+            cap.release()
+        if not images:
+            raise ViewError(path, f"no frame could be read (camera {cam.name!r})")
+        return images
 
     def images(self, frame: int) -> list[np.ndarray]:
         """Frame `frame` of every camera, (H, W, 3) uint8 BGR each, in camera order."""
@@ -248,3 +313,10 @@ class Sequence:
         for cap in self._videos.values():
             cap.release()
         self._videos.clear()
+
+
+def _spread(n: int, most: int) -> list[int]:
+    """At most `most` of the indices 0 … n − 1, spread evenly, first and last included."""
+    if most < 1:
+        raise ValueError(f"most must be at least 1, got {most}")
+    return sorted({round(i) for i in np.linspace(0, n - 1, min(n, most))})

@@ -206,7 +206,7 @@ class Tracker:
             backgrounds = []
             for cam in seq.cameras:
                 try:
-                    backgrounds.append(background_model(seq.background(cam.name), self.options.background))
+                    backgrounds.append(background_model(seq.backgrounds(cam.name), self.options.background))
                 except ViewError as e:
                     self._no_background[cam.name] = e
                     backgrounds.append(None)
@@ -214,8 +214,8 @@ class Tracker:
                 first = next(iter(self._no_background.values()))
                 raise SequenceError(
                     f"{seq.path}: no camera has a usable background image ({first}); background subtraction "
-                    "needs background/<camera>.png of the empty scene for each camera, or give the sequence your "
-                    "own masks in silhouettes/<camera>/ (docs/formats.md)")
+                    "needs background/<camera>.png of the empty scene for each camera (or a clip of it), or give "
+                    "the sequence your own masks in silhouettes/<camera>/ (docs/formats.md)")
             self._backgrounds = backgrounds
             if self.options.guided and self.options.background == "statistical":
                 self._guided = [None if b is None else GuidedSegmenter(b, self._guidance) for b in backgrounds]
