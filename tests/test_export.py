@@ -135,6 +135,13 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert main(["export", str(tmp_path / "out"), "--format", "trc"]) == 0
     header = (tmp_path / "out" / "joints.trc").read_text().splitlines()[2].split("\t")
     assert header[2:5] == ["3", "21", "mm"]
+    assert main(["export", str(tmp_path / "out"), "--format", "mot"]) == 0
+    from hullcap.export import read_mot
+
+    columns, angles = read_mot(tmp_path / "out" / "angles.mot")
+    assert columns[:2] == ["time", "root_tx"] and "l_knee_flexion" in columns and angles.shape == (3, len(columns))
+    assert main(["export", str(tmp_path / "out"), "--format", "angles", "--smooth", "6"]) == 0
+    assert (tmp_path / "out" / "angles.csv").read_text().splitlines()[0] == ",".join(columns)
     assert main(["export", str(tmp_path / "out"), "--format", "glb", "--up", "z"]) == 2
     assert "apply to bvh and trc" in capsys.readouterr().err
     assert main(["export", str(tmp_path / "out"), "--format", "trc", "--units", "cm"]) == 2
@@ -273,3 +280,44 @@ def test_trc_read_by_an_independent_reader(tmp_path, up, units):
         assert np.isnan(theirs[3]).all()
         good = [0, 1, 2, 4]
         assert np.allclose(theirs[good], scale * joints[good, j] @ C.T, atol=1e-5 * scale)
+
+
+def test_angles_rebuild_the_pose_and_round_trip_through_mot_and_csv(tmp_path):
+    """The angle table of a motion that turns round twice, leans and bends, with one failed
+    frame: its root angles rebuild each root rotation as Rz(yaw) Ry(roll) Rx(pitch), the
+    yaw goes on past 180° instead of jumping, the DOF are theta in degrees; the .mot file
+    reads back (by our reader and as OpenSim's header says) and the CSV by NumPy, both
+    without the failed frame."""
+    from hullcap.export import angle_table, read_mot, write_angles_csv, write_mot
+    from hullcap.export._angles import ROOT_COLUMNS
+
+    frames, dofs = 40, ["l_knee_flexion", "neck_twist"]
+    rng = np.random.default_rng(3)
+    yaw = np.linspace(0, 720, frames)
+    roll = 20 * np.sin(np.linspace(0, 3, frames))
+    pitch = np.linspace(-10, 85, frames)  # to a bend near the floor
+    R = np.stack([rot("z", y) @ rot("y", r) @ rot("x", p) for y, r, p in zip(yaw, roll, pitch)])
+    t = rng.normal(0, 1, (frames, 3))
+    theta = rng.uniform(-1, 1, (frames, 2))
+    theta[17] = np.nan
+    names, values = angle_table(dofs, theta, t, R, 25.0)
+    assert names == ["time", *ROOT_COLUMNS, *dofs]
+    assert np.isnan(values[17, 1:]).all() and values[17, 0] == 17 / 25.0
+    good = np.delete(np.arange(frames), 17)
+    assert np.allclose(values[good, 1:4], t[good])
+    assert np.allclose(values[good, 4], yaw[good]) and np.allclose(values[good, 5], roll[good])
+    assert np.allclose(values[good, 6], pitch[good]) and np.allclose(values[good, 7:], np.degrees(theta[good]))
+    write_mot(tmp_path / "angles.mot", names, values)
+    lines = (tmp_path / "angles.mot").read_text().splitlines()
+    assert lines[:6] == ["angles.mot", "version=1", f"nRows={frames - 1}", f"nColumns={len(names)}",
+                         "inDegrees=yes", "endheader"]
+    got_names, got = read_mot(tmp_path / "angles.mot")
+    assert got_names == names and np.allclose(got, values[good], atol=1e-6)
+    write_angles_csv(tmp_path / "angles.csv", names, values)
+    table = np.genfromtxt(tmp_path / "angles.csv", delimiter=",", names=True)
+    assert list(table.dtype.names) == names and np.allclose(table["root_yaw"], yaw[good], atol=1e-6)
+    with pytest.raises(ValueError, match="theta"):
+        angle_table(dofs, theta[:, :1], t, R, 25.0)
+    (tmp_path / "bad.mot").write_text("endheader\ntime\ta\n0.0\t1.0\t2.0\n")
+    with pytest.raises(ValueError, match=r"bad.mot, line 3: 3 values for 2 columns"):
+        read_mot(tmp_path / "bad.mot")

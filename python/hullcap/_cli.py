@@ -84,14 +84,15 @@ def _demo(args) -> int:
 
 def _export(args) -> int:
     from hullcap._results import load_result, smooth_joints, write_joints_csv
-    from hullcap.export import write_bvh, write_c3d, write_glb, write_trc
+    from hullcap.export import angle_table, write_angles_csv, write_bvh, write_c3d, write_glb, write_mot, write_trc
 
     result = load_result(args.out)
     if args.interpolate:
         result = result.interpolated()
     if args.smooth:
         result.joints = smooth_joints(result.joints, result.fps, args.smooth)
-    names = {"bvh": "motion.bvh", "glb": "model.glb", "c3d": "joints.c3d", "csv": "joints.csv", "trc": "joints.trc"}
+    names = {"bvh": "motion.bvh", "glb": "model.glb", "c3d": "joints.c3d", "csv": "joints.csv", "trc": "joints.trc",
+             "mot": "angles.mot", "angles": "angles.csv"}
     target = Path(args.to) if args.to else Path(args.out) / names[args.format]
     motion = (result.model, result.root_translation, result.root_rotation, result.theta, result.fps)
     convention = {k: v for k, v in (("up", args.up), ("units", args.units)) if v}
@@ -105,6 +106,12 @@ def _export(args) -> int:
         write_glb(target, *motion)
     elif args.format == "c3d":
         write_c3d(target, result.model.joint_names, result.joints, result.fps)
+    elif args.format in ("mot", "angles"):
+        columns, values = angle_table(result.model.dof_names, result.theta, result.root_translation,
+                                      result.root_rotation, result.fps)
+        if args.smooth:
+            values[:, 1:] = smooth_joints(values[:, 1:, None], result.fps, args.smooth)[..., 0]
+        (write_mot if args.format == "mot" else write_angles_csv)(target, columns, values)
     else:
         write_joints_csv(target, result)
     print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
@@ -295,10 +302,11 @@ def build_parser() -> argparse.ArgumentParser:
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
         "Write a finished run's motion (its pose.npz and model/) in another format."))
     e.add_argument("out", help="the results folder of a `hullcap track` run")
-    e.add_argument("--format", choices=["bvh", "glb", "c3d", "trc", "csv"], required=True,
+    e.add_argument("--format", choices=["bvh", "glb", "c3d", "trc", "csv", "mot", "angles"], required=True,
                    help="bvh: motion.bvh (Blender, MotionBuilder); glb: model.glb (skinned mesh + motion); "
                         "c3d: joints.c3d (biomechanics tools; needs ezc3d); trc: joints.trc (OpenSim markers); "
-                        "csv: joints.csv")
+                        "csv: joints.csv; mot: angles.mot (joint angles in degrees, OpenSim's motion file); "
+                        "angles: angles.csv (the same as CSV)")
     e.add_argument("--up", choices=["y", "z"],
                    help="bvh, trc: the up axis (default y, what Blender's importer and OpenSim assume; "
                         "z: our world as in joints.csv)")
