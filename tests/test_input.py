@@ -1059,3 +1059,43 @@ def test_the_guided_log_odds_are_numpys_sum_to_the_bit(bins, rng):
         guided_logit(evidence, image, (6, 10), ramp, (1.0, -1.0, 0.3, 2.0, 1.0, 4.0))
     with pytest.raises(ArrayError, match="image has the shape"):
         guided_logit(evidence, image[:, :, :1], (6, 10), ramp, weights)
+
+
+@pytest.mark.parametrize("factor", [0.5, 0.37, 1.0])
+def test_a_scaled_camera_projects_where_the_resized_image_shows_the_point(rng, factor):
+    """A world point projects, through the scaled calibration (distortion and skew
+    included), to where `cv2.resize` carries its pixel: (u + ½) · ratio − ½ on each axis."""
+    K = np.array([[820.0, 1.5, 655.3], [0, 815.0, 361.8], [0, 0, 1]])
+    cam = Camera("c", 1280, 720, K, [0.05, -0.02, 0.001, -0.002, 0.003], np.eye(3), [0.0, 0.0, 4.0])
+    small = cam.scaled(factor)
+    assert (small.width, small.height) == (round(1280 * factor), round(720 * factor))
+    points = rng.uniform([-1.5, -1, -1], [1.5, 1, 1], (50, 3))
+    (u, _), (v, _) = cam.project(points), small.project(points)
+    ratio = np.array([small.width / 1280, small.height / 720])
+    assert np.allclose(v, (u + 0.5) * ratio - 0.5, atol=1e-9)
+    # And the resized image agrees: a bright dot drawn at one projection stays at its image.
+    image = np.zeros((720, 1280), np.float32)
+    x, y = np.rint(u[0]).astype(int)
+    image[y - 8:y + 8, x - 8:x + 8] = 1.0  # centred on (x − ½, y − ½)
+    resized = cv2.resize(image, (small.width, small.height), interpolation=cv2.INTER_AREA)
+    weights = resized / resized.sum()
+    centre = np.array([weights.sum(0) @ np.arange(small.width), weights.sum(1) @ np.arange(small.height)])
+    assert np.abs(centre - (np.array([x, y]) * ratio - 0.5)).max() < 0.05
+    with pytest.raises(ValueError, match=r"image scale must be in \(0, 1\]"):
+        cam.scaled(1.5)
+    assert Cameras([cam]).scaled(1) is not None and Cameras([cam]).scaled(1)[0] is cam
+
+
+def test_a_sequence_read_at_a_smaller_scale_checks_files_against_their_own_size(sequence, tmp_path):
+    seq_path = tmp_path / "seq"
+    shutil.copytree(sequence, seq_path, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    seq = Sequence(seq_path, image_scale=0.5)
+    assert "images at 0.5 of their size" in repr(seq)
+    assert seq.image(1, "cam0").shape == (120, 160, 3) and seq.background("cam0").shape == (120, 160, 3)
+    whole = Sequence(seq_path).image(1, "cam0")
+    assert np.array_equal(seq.image(1, "cam0"), cv2.resize(whole, (160, 120), interpolation=cv2.INTER_AREA))
+    cv2.imwrite(str(seq_path / "frames" / "cam1" / "000002.png"), np.zeros((120, 160, 3), np.uint8) + 50)
+    with pytest.raises(ValueError, match=r"image is 160×120, camera 'cam1' is calibrated for 320×240"):
+        seq.image(2, "cam1")
+    with pytest.raises(ValueError, match=r"image_scale must be in \(0, 1\]"):
+        Sequence(seq_path, image_scale=2)

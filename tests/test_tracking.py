@@ -494,3 +494,15 @@ def test_over_relaxed_fits_end_where_plain_ones_do_for_fewer_iterations(short_se
         apart = np.linalg.norm(ends["over"] - ends["plain"], axis=1)
         assert apart.mean() < 0.003, f"frame {f}: the fits' joints {apart.mean() * 1000:.1f} mm apart"
     assert iterations["over"] < iterations["plain"], iterations
+
+
+def test_images_read_at_a_smaller_scale_track_the_same_person(short_sequence, tmp_path):
+    """Every image, mask and background read at 3/4 of its size, the calibration scaled
+    with them: the person is tracked as well from the smaller images, every frame."""
+    seq = Sequence(short_sequence, image_scale=0.75)
+    assert (seq.cameras[0].width, seq.cameras[0].height) == (300, 225)
+    assert seq.image(0, 0).shape == (225, 300, 3) and seq.mask(0, 0).shape == (225, 300)
+    assert set(np.unique(seq.mask(0, 0))) <= {0, 255}
+    result = Tracker(seq).run(tmp_path / "out", show_progress=False)
+    acc = accuracy(result, short_sequence)
+    assert acc.failed == 0 and acc.mean_mm < 25, acc.table()

@@ -125,6 +125,22 @@ class Camera:
         d = np.concatenate([norm.reshape(-1, 2), np.ones((len(pixels), 1))], 1) @ self.R
         return self.centre, d / np.linalg.norm(d, axis=1, keepdims=True)
 
+    def scaled(self, factor: float) -> Camera:
+        """The same camera seeing its images resized by `factor` (``cv2.resize`` to
+        round(width · factor) × round(height · factor)): the focal lengths and skew scaled by
+        each axis's own ratio of sizes, the principal point mapped as a pixel centre is,
+        (c + ½) · ratio − ½. The distortion acts on normalised coordinates and stays."""
+        if not 0 < factor <= 1:
+            raise CalibrationError(f"camera {self.name!r}: an image scale must be in (0, 1], got {factor}")
+        width, height = max(1, round(self.width * factor)), max(1, round(self.height * factor))
+        sx, sy = width / self.width, height / self.height
+        K = self.K.copy()
+        K[0, :2] *= sx
+        K[1, 1] *= sy
+        K[0, 2] = (K[0, 2] + 0.5) * sx - 0.5
+        K[1, 2] = (K[1, 2] + 0.5) * sy - 0.5
+        return Camera(self.name, width, height, K, self.dist, self.R, self.t)
+
     def to_dict(self) -> dict:
         return {"name": self.name, "width": self.width, "height": self.height,
                 "K": self.K.tolist(), "dist": self.dist.tolist(), "R": self.R.tolist(),
@@ -171,6 +187,10 @@ class Cameras(Sequence[Camera]):
     @property
     def names(self) -> list[str]:
         return [c.name for c in self._cameras]
+
+    def scaled(self, factor: float) -> Cameras:
+        """Every camera :meth:`Camera.scaled`; `factor` 1 gives these cameras."""
+        return self if factor == 1 else Cameras([c.scaled(factor) for c in self._cameras])
 
     # -- our format -----------------------------------------------------------------------
 

@@ -20,7 +20,7 @@ def _track(args) -> int:
     options = TakeOptions(voxel=args.voxel, background=args.background, ignore_silhouettes=args.ignore_silhouettes,
                           volume=args.volume, frames=args.frames, refine_joints=args.refine_joints,
                           hand_reach=args.hand_reach, wrists=args.wrists, overlays=not args.no_overlay,
-                          interpolate=args.interpolate, smooth=args.smooth)
+                          interpolate=args.interpolate, smooth=args.smooth, image_scale=args.image_scale)
     track_take(args.sequence, args.out, options, model=args.model, resume=not args.restart, say=print,
                warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
     return 0
@@ -212,6 +212,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="the results folder")
     t.add_argument("--model", help="a body model folder from an earlier run of the same subject (skips building one)")
     t.add_argument("--voxel", type=float, default=0.01, help="visual hull voxel size in metres (default 0.01)")
+    t.add_argument("--image-scale", type=float, default=1.0, metavar="S",
+                   help="read every image resized by S in (0, 1] (the calibration follows): for cameras of more "
+                        "pixels than the hull needs, e.g. 0.5 for 1920x1080 (default 1)")
     t.add_argument("--background", choices=["statistical", "mog2"], default="statistical",
                    help="background subtraction when the sequence has no silhouettes (default statistical)")
     t.add_argument("--ignore-silhouettes", action="store_true",

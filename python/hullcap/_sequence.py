@@ -20,7 +20,7 @@ import numpy as np
 
 from hullcap._cameras import Cameras
 from hullcap._files import read_document
-from hullcap.errors import SequenceError, ViewError
+from hullcap.errors import OptionsError, SequenceError, ViewError
 
 __all__ = ["Sequence", "VIDEO_SUFFIXES", "BACKGROUND_FRAMES"]
 
@@ -38,15 +38,25 @@ class Sequence:
     """A sequence folder: ``cameras.json``, ``meta.json`` (optional when every camera is a
     video), ``frames/<cam>/`` or ``videos/<cam>.mp4`` (or another of
     :data:`VIDEO_SUFFIXES`), ``background/<cam>.png`` (or a clip of the empty scene,
-    :meth:`backgrounds`), optional ``silhouettes/<cam>/``."""
+    :meth:`backgrounds`), optional ``silhouettes/<cam>/``.
 
-    def __init__(self, path):
+    `image_scale` < 1 reads every image, mask and background resized by that factor, and
+    :attr:`cameras` is the calibration of the resized images (:meth:`Camera.scaled`): for
+    cameras of more pixels than the 1 cm voxels of the hull need (3 m from a 1920 × 1080
+    camera of 60–90° field, a pixel spans 2–3 mm), at a fraction of the cost of every stage.
+    Files are checked against the calibration of their own size (``cameras.json``)."""
+
+    def __init__(self, path, image_scale: float = 1.0):
         self.path = Path(path)
         if not self.path.is_dir():
             raise SequenceError(f"{self.path}: no such sequence folder")
         if not (self.path / "cameras.json").is_file():
             raise SequenceError(f"{self.path}: missing cameras.json")
-        self.cameras = Cameras.load(self.path / "cameras.json")
+        if not (isinstance(image_scale, int | float) and 0 < image_scale <= 1):
+            raise OptionsError(f"image_scale must be in (0, 1], got {image_scale!r}")
+        self.image_scale = float(image_scale)
+        self._native = Cameras.load(self.path / "cameras.json")
+        self.cameras = self._native.scaled(self.image_scale)
         self._video_paths = self._find_videos()
         meta_path = self.path / "meta.json"
         meta = read_document(meta_path, SequenceError) if meta_path.is_file() else self._meta_from_videos(meta_path)
@@ -61,7 +71,7 @@ class Sequence:
         self.n_frames = int(frames)
         self._videos: dict[str, cv2.VideoCapture] = {}
         self._video_pos: dict[str, int] = {}
-        for cam in self.cameras:
+        for cam in self._native:
             has_frames = (self.path / "frames" / cam.name).is_dir()
             has_masks = (self.path / "silhouettes" / cam.name).is_dir()
             if not (has_frames or cam.name in self._video_paths or has_masks):
@@ -130,7 +140,9 @@ class Sequence:
         return self.n_frames
 
     def __repr__(self) -> str:
-        return f"Sequence({str(self.path)!r}, {len(self.cameras)} cameras, {self.n_frames} frames at {self.fps:g} fps)"
+        scale = f", images at {self.image_scale:g} of their size" if self.image_scale != 1 else ""
+        return (f"Sequence({str(self.path)!r}, {len(self.cameras)} cameras, {self.n_frames} frames at "
+                f"{self.fps:g} fps{scale})")
 
     @property
     def has_silhouettes(self) -> bool:
@@ -153,7 +165,7 @@ class Sequence:
         noise, a monitor in the room); from one image only the noise it assumes
         (``StatisticalBackground.noise_floor``). A ViewError when the camera has none, or
         a frame cannot be used; a SequenceError when it has more than one of them."""
-        cam = self.cameras[camera]
+        cam = self._native[camera]
         folder = self.path / "background"
         found = [p for p in (folder / f"{cam.name}.png", folder / f"{cam.name}.jpg", folder / cam.name)
                  if p.exists()]
@@ -168,14 +180,16 @@ class Sequence:
                                                         f"background/{cam.name}/ or background/{cam.name}.mp4)")
         (path,) = found
         if path.suffix.lower() in (".png", ".jpg"):
-            return [self._read(path, cam, colour=True)]
-        if path.is_dir():
+            images = [self._read(path, cam, colour=True)]
+        elif path.is_dir():
             numbered = re.compile(r"^\d{6}\.(png|jpg)$")
             files = sorted(p for p in path.iterdir() if numbered.match(p.name))
             if not files:
                 raise ViewError(path, f"no numbered images (000000.png …) of the empty scene (camera {cam.name!r})")
-            return [self._read(files[i], cam, colour=True) for i in _spread(len(files), most)]
-        return self._clip(path, cam, most)
+            images = [self._read(files[i], cam, colour=True) for i in _spread(len(files), most)]
+        else:
+            images = self._clip(path, cam, most)
+        return [self._rescaled(img, cam.name) for img in images]
 
     def _clip(self, path: Path, cam, most: int) -> list[np.ndarray]:
         """At most `most` frames of the video `path`, spread evenly over it."""
@@ -208,7 +222,7 @@ class Sequence:
         """Frame `frame` of `camera` (name or index), (H, W, 3) uint8 BGR. A blank image
         (every pixel the same: a camera that dropped out) is an error too."""
         self._check_frame(frame)
-        cam = self.cameras[camera]
+        cam = self._native[camera]
         png = self.path / "frames" / cam.name / f"{frame:06d}.png"
         jpg = png.with_suffix(".jpg")
         video = self._video_paths.get(cam.name)
@@ -219,7 +233,7 @@ class Sequence:
             path, img = video, self._video_frame(cam, frame)
         if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
             raise ViewError(path, f"blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
-        return img
+        return self._rescaled(img, cam.name)
 
     def check_image_sizes(self) -> None:
         """Refuse a camera whose images all have another size than its calibration (the
@@ -257,10 +271,23 @@ class Sequence:
         return [self.mask(frame, c.name) for c in self.cameras]
 
     def mask(self, frame: int, camera) -> np.ndarray:
-        """The given silhouette of `camera` (name or index) in frame `frame`."""
+        """The given silhouette of `camera` (name or index) in frame `frame`; resized by
+        `image_scale`, a pixel is subject where the subject covered at least half of it."""
         self._check_frame(frame)
-        cam = self.cameras[camera]
-        return self._read(self.path / "silhouettes" / cam.name / f"{frame:06d}.png", cam, colour=False)
+        cam = self._native[camera]
+        mask = self._read(self.path / "silhouettes" / cam.name / f"{frame:06d}.png", cam, colour=False)
+        if self.image_scale == 1:
+            return mask
+        return np.where(self._rescaled(np.where(mask > 0, 255, 0).astype(np.uint8), cam.name) >= 128, 255,
+                        0).astype(np.uint8)
+
+    def _rescaled(self, img: np.ndarray, name: str) -> np.ndarray:
+        """`img` of camera `name` at :attr:`cameras`' size (each output pixel the mean of
+        the pixels it covers)."""
+        if self.image_scale == 1:
+            return img
+        cam = self.cameras[name]
+        return cv2.resize(img, (cam.width, cam.height), interpolation=cv2.INTER_AREA)
 
     def _check_frame(self, frame):
         if not 0 <= frame < self.n_frames:

@@ -43,6 +43,8 @@ class TakeOptions:
         overlays: write ``overlay/<cam>.mp4``.
         interpolate: fill failed frames between fitted ones in the outputs.
         smooth: also write trajectories low-passed at this cut-off (Hz).
+        image_scale: read every image resized by this factor in (0, 1]
+            (:class:`~hullcap._sequence.Sequence`'s `image_scale`).
     """
 
     voxel: float = 0.01
@@ -56,6 +58,7 @@ class TakeOptions:
     overlays: bool = True
     interpolate: bool = False
     smooth: float | None = None
+    image_scale: float = 1.0
 
     @classmethod
     def from_table(cls, table: dict, where: str, base: TakeOptions | None = None) -> TakeOptions:
@@ -95,9 +98,9 @@ def _checked(key: str, value, where: str):
         return tuple(float(v) for v in value)
     if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
         raise bad("a positive number")
-    if key == "hand_reach" and value > 1:
+    if key in ("hand_reach", "image_scale") and value > 1:
         raise bad("a fraction in (0, 1]")
-    return float(value)  # voxel, smooth, hand_reach
+    return float(value)  # voxel, smooth, hand_reach, image_scale
 
 
 @dataclass(frozen=True)
@@ -140,7 +143,7 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     say = say or (lambda line: None)
     warn = warn or say
     t0 = time.perf_counter()
-    seq = Sequence(sequence)
+    seq = Sequence(sequence, image_scale=options.image_scale)
     body = BodyModel.load(model) if model is not None else None
     tracker_options = TrackerOptions(voxel_size=options.voxel, background=options.background,
                                      use_silhouettes=not options.ignore_silhouettes,
