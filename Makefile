@@ -31,6 +31,7 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_tracking.py
 	$(PY) benchmarks/bench_tracking.py --accuracy
 	$(PY) benchmarks/bench_batch.py
+	$(PY) benchmarks/bench_scale.py   # HD cameras read at a fraction of their size, ~5 min
 	$(PY) benchmarks/bench_devset.py --silhouettes colour exact   # the benchmark of record, ~8 min
 	$(PY) benchmarks/bench_knee.py   # the subject model's knee search on the development set, ~10 min
 	$(PY) benchmarks/bench_girdle.py   # raised arms in bench_devset's runs: the shoulders' height, refits, ~15 s

@@ -1097,5 +1097,18 @@ def test_a_sequence_read_at_a_smaller_scale_checks_files_against_their_own_size(
     cv2.imwrite(str(seq_path / "frames" / "cam1" / "000002.png"), np.zeros((120, 160, 3), np.uint8) + 50)
     with pytest.raises(ValueError, match=r"image is 160×120, camera 'cam1' is calibrated for 320×240"):
         seq.image(2, "cam1")
+    # A JPEG decodes at half its size (libjpeg's reduced decoding): as the whole image
+    # resized, to JPEG's own loss; a JPEG of another size is still named with its size.
+    frame = seq_path / "frames" / "cam2" / "000003.png"
+    ok, jpg = cv2.imencode(".jpg", cv2.imread(str(frame)), [cv2.IMWRITE_JPEG_QUALITY, 95])
+    frame.unlink()
+    frame.with_suffix(".jpg").write_bytes(jpg.tobytes())
+    halved = seq.image(3, "cam2").astype(int)
+    resized = cv2.resize(Sequence(seq_path).image(3, "cam2"), (160, 120), interpolation=cv2.INTER_AREA)
+    assert halved.shape == (120, 160, 3) and np.abs(halved - resized).mean() < 1.5
+    ok, jpg = cv2.imencode(".jpg", np.zeros((240, 319, 3), np.uint8) + 80)
+    frame.with_suffix(".jpg").write_bytes(jpg.tobytes())
+    with pytest.raises(ValueError, match=r"image is 319×240, camera 'cam2' is calibrated for 320×240"):
+        seq.image(3, "cam2")
     with pytest.raises(ValueError, match=r"image_scale must be in \(0, 1\]"):
         Sequence(seq_path, image_scale=2)

@@ -28,6 +28,11 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v")
 """Containers ``videos/<cam>.*`` may be in: those the cameras and recorders of labs write
 that OpenCV's FFmpeg reads (its codecs decide what is inside them)."""
 
+REDUCED = {2: {True: cv2.IMREAD_REDUCED_COLOR_2, False: cv2.IMREAD_REDUCED_GRAYSCALE_2},
+           4: {True: cv2.IMREAD_REDUCED_COLOR_4, False: cv2.IMREAD_REDUCED_GRAYSCALE_4},
+           8: {True: cv2.IMREAD_REDUCED_COLOR_8, False: cv2.IMREAD_REDUCED_GRAYSCALE_8}}
+"""OpenCV's flags decoding a JPEG at 1/2, 1/4 or 1/8 of its size, by reduction and colour."""
+
 BACKGROUND_FRAMES = 30
 """The most frames of a background clip :meth:`Sequence.backgrounds` reads: enough for a
 standard deviation per pixel within about 13 % of its own (1/√(2n)), and a second of
@@ -57,6 +62,9 @@ class Sequence:
         self.image_scale = float(image_scale)
         self._native = Cameras.load(self.path / "cameras.json")
         self.cameras = self._native.scaled(self.image_scale)
+        # JPEG decodes at 1/2, 1/4 or 1/8 of its size for a fraction of the work: the
+        # smallest of those still at least as large as the images asked for.
+        self._jpeg_reduction = max((r for r in (1, 2, 4, 8) if 1 / r >= self.image_scale), default=1)
         self._video_paths = self._find_videos()
         meta_path = self.path / "meta.json"
         meta = read_document(meta_path, SequenceError) if meta_path.is_file() else self._meta_from_videos(meta_path)
@@ -228,7 +236,7 @@ class Sequence:
         video = self._video_paths.get(cam.name)
         if png.is_file() or jpg.is_file() or video is None:
             path = png if png.is_file() or not jpg.is_file() else jpg
-            img = self._read(path, cam, colour=True)
+            img = self._read(path, cam, colour=True, reduce=self._jpeg_reduction)
         else:
             path, img = video, self._video_frame(cam, frame)
         if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
@@ -293,7 +301,9 @@ class Sequence:
         if not 0 <= frame < self.n_frames:
             raise IndexError(f"{self.path}: frame {frame} out of range 0..{self.n_frames - 1}")
 
-    def _read(self, path: Path, cam, colour: bool) -> np.ndarray:
+    def _read(self, path: Path, cam, colour: bool, reduce: int = 1) -> np.ndarray:
+        """The image `path` of camera `cam`, checked against the camera's size; a JPEG with
+        `reduce` 2, 4 or 8 decoded at that fraction of its size (each side rounded up)."""
         try:
             data = path.read_bytes()
         except FileNotFoundError:
@@ -307,10 +317,14 @@ class Sequence:
             raise ViewError(path, f"truncated JPEG (camera {cam.name!r})")
         if data.startswith(b"\x89PNG") and not data.endswith(b"IEND\xaeB`\x82"):
             raise ViewError(path, f"truncated PNG (camera {cam.name!r})")
-        img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE) \
-            if data else None
+        # A JPEG of the camera's own size (its frame header says) may decode reduced.
+        reduced = reduce > 1 and data.startswith(b"\xff\xd8") and _jpeg_size(data) == (cam.width, cam.height)
+        flag = REDUCED[reduce][colour] if reduced else cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE
+        img = cv2.imdecode(np.frombuffer(data, np.uint8), flag) if data else None
         if img is None:
             raise ViewError(path, f"not a readable image (camera {cam.name!r})")
+        if reduced:
+            return img
         if img.shape[:2] != (cam.height, cam.width):
             raise ViewError(path, f"image is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is calibrated for "
                                   f"{cam.width}×{cam.height}", wrong_size=True)
@@ -347,3 +361,21 @@ def _spread(n: int, most: int) -> list[int]:
     if most < 1:
         raise ValueError(f"most must be at least 1, got {most}")
     return sorted({round(i) for i in np.linspace(0, n - 1, min(n, most))})
+
+
+def _jpeg_size(data: bytes) -> tuple[int, int] | None:
+    """``(width, height)`` from a JPEG's frame header (its SOF segment), or None where
+    the markers before it do not parse."""
+    i = 2
+    while i + 9 <= len(data):
+        if data[i] != 0xFF:
+            return None
+        marker = data[i + 1]
+        if marker == 0xFF:  # fill byte
+            i += 1
+            continue
+        length = int.from_bytes(data[i + 2:i + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
+            return int.from_bytes(data[i + 7:i + 9], "big"), int.from_bytes(data[i + 5:i + 7], "big")
+        i += 2 + length
+    return None
