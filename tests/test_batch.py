@@ -109,9 +109,10 @@ def test_a_session_without_session_toml_is_every_sequence_folder(tmp_path):
 
 def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_path):
     takes = load_session(_session(tmp_path, '[defaults]\nvoxel = 0.02\n[subjects]\np = "b"\n'
-                                            '[takes]\na = { subject = "p", frames = 7 }\nb = { frames = 9 }\n'))
-    assert [(t.name, t.subject, t.calibration, t.options.voxel, t.options.frames) for t in takes] == [
-        ("b", "p", None, 0.02, 9), ("a", "p", "b", 0.02, 7)]
+                                            '[takes]\na = { subject = "p", frames = 7 }\n'
+                                            'b = { frames = 9, image_scale = 0.5 }\n'))
+    assert [(t.name, t.subject, t.calibration, t.options.voxel, t.options.frames, t.options.image_scale)
+            for t in takes] == [("b", "p", None, 0.02, 9, 0.5), ("a", "p", "b", 0.02, 7, 1.0)]
 
 
 @pytest.mark.parametrize("toml, message", [
@@ -120,6 +121,7 @@ def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_pat
     ("[takes]\na = { frames = 0 }\n", "[takes] a: frames must be a whole number of frames, at least 1"),
     ("[takes]\na = { volume = [0, 0, 0] }\n", "volume must be six numbers"),
     ("[takes]\na = { hand_reach = 1.5 }\n", "hand_reach must be a fraction in (0, 1], got 1.5"),
+    ("[defaults]\nimage_scale = 2\n", "image_scale must be a fraction in (0, 1], got 2"),
     ("[defaults]\nvoxel = inf\n", "[defaults]: voxel must be a positive number, got inf"),
     ("[takes]\na = { volume = [0, 0, 0, 1, 1, nan] }\n", "volume must be six numbers"),
     ("[takes]\na = \"nobody\"\n", "subject 'nobody' has no calibration take in [subjects]"),
