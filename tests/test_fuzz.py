@@ -1,13 +1,13 @@
 """Parsers under fuzzing (Hypothesis): any bytes given as cameras.json, a sequence's
 meta.json, an EasyMocap or Pose2Sim calibration, links.json, a body model's mesh.npz,
-pose.npz, problems.json or a TRC file (the reference of ``hullcap compare``) either load
-or raise an exception of the hullcap family (hullcap.errors.HullcapError), never another
-one.
+pose.npz, problems.json, a TRC file (the reference of ``hullcap compare``), a motion
+file (``angles.mot``) or a JPEG frame read at half its size either load or raise an
+exception of the hullcap family (hullcap.errors.HullcapError), never another one.
 
 Inputs are random bytes, valid files with bytes changed, cut or inserted, (for the JSON
 formats) valid documents with one value replaced by arbitrary JSON, and (for mesh.npz
-and pose.npz) a valid archive with one array replaced by an arbitrary small one. The number of examples
-is bounded so that the whole module runs in well under a minute.
+and pose.npz) a valid archive with one array replaced by an arbitrary small one. The
+number of examples is bounded so that the whole module runs in well under a minute.
 """
 
 import atexit
@@ -18,6 +18,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
+import cv2
 import numpy as np
 from hullcap import BodyModel
 from hullcap._cameras import Cameras, ring
@@ -26,7 +27,7 @@ from hullcap._problems import ProblemLog
 from hullcap._results import load_result
 from hullcap._sequence import Sequence
 from hullcap.errors import HullcapError
-from hullcap.export import read_trc, write_trc
+from hullcap.export import angle_table, read_mot, read_trc, write_mot, write_trc
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -121,6 +122,52 @@ TRC = _trc()
 @given(mutated(TRC))
 def test_trc(data):
     loads_or_hullcap_error(read_trc, data, "joints.trc")
+
+
+def _mot() -> bytes:
+    with tempfile.TemporaryDirectory() as tmp:
+        theta = np.arange(3 * 2, dtype=float).reshape(3, 2) / 10
+        theta[1] = np.nan
+        names, values = angle_table(["a", "b"], theta, np.zeros((3, 3)), np.tile(np.eye(3), (3, 1, 1)), 30.0)
+        write_mot(Path(tmp) / "angles.mot", names, values)
+        return (Path(tmp) / "angles.mot").read_bytes()
+
+
+MOT = _mot()
+
+
+@FUZZ
+@given(mutated(MOT))
+def test_mot(data):
+    loads_or_hullcap_error(read_mot, data, "angles.mot")
+
+
+def _jpeg_sequence() -> tuple[Path, bytes]:
+    """A one-camera sequence folder whose frame is a JPEG, for reading it reduced."""
+    folder = Path(tempfile.mkdtemp())
+    atexit.register(shutil.rmtree, folder, True)
+    Cameras(ring(1, width=64, height_px=48)).save(folder / "cameras.json")
+    (folder / "meta.json").write_text('{"fps": 30, "frames": 1}')
+    (folder / "frames" / "cam0").mkdir(parents=True)
+    ok, jpg = cv2.imencode(".jpg", np.random.default_rng(1).integers(0, 255, (48, 64, 3), dtype=np.uint8))
+    return folder, jpg.tobytes()
+
+
+JPEG_SEQUENCE, JPEG = _jpeg_sequence()
+
+
+@FUZZ
+@given(mutated(JPEG))
+def test_a_jpeg_frame_read_at_half_its_size(data):
+    """A frame's bytes, changed: read at half its size (its header parsed, then decoded
+    reduced) it is an image of the scaled camera's size or a ViewError, never another
+    exception."""
+    (JPEG_SEQUENCE / "frames" / "cam0" / "000000.jpg").write_bytes(data)
+    seq = Sequence(JPEG_SEQUENCE, image_scale=0.5)
+    try:
+        assert seq.image(0, 0).shape == (24, 32, 3)
+    except HullcapError:
+        pass
 
 
 LINKS = LinkModel.standard().to_dict()
