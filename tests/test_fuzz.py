@@ -107,15 +107,20 @@ def test_cameras_json(data):
     loads_or_hullcap_error(Cameras.load, data, "cameras.json")
 
 
-def _trc() -> bytes:
+def written(write) -> bytes:
+    """The bytes `write(path)` puts in a file."""
     with tempfile.TemporaryDirectory() as tmp:
-        joints = np.arange(2 * 3 * 3, dtype=float).reshape(2, 3, 3) / 10
-        joints[1, 2] = np.nan
-        write_trc(Path(tmp) / "j.trc", ["pelvis", "neck", "l_hip"], joints, 30.0)
-        return (Path(tmp) / "j.trc").read_bytes()
+        write(Path(tmp) / "file")
+        return (Path(tmp) / "file").read_bytes()
 
 
-TRC = _trc()
+def _trc(path):
+    joints = np.arange(2 * 3 * 3, dtype=float).reshape(2, 3, 3) / 10
+    joints[1, 2] = np.nan
+    write_trc(path, ["pelvis", "neck", "l_hip"], joints, 30.0)
+
+
+TRC = written(_trc)
 
 
 @FUZZ
@@ -124,16 +129,13 @@ def test_trc(data):
     loads_or_hullcap_error(read_trc, data, "joints.trc")
 
 
-def _mot() -> bytes:
-    with tempfile.TemporaryDirectory() as tmp:
-        theta = np.arange(3 * 2, dtype=float).reshape(3, 2) / 10
-        theta[1] = np.nan
-        names, values = angle_table(["a", "b"], theta, np.zeros((3, 3)), np.tile(np.eye(3), (3, 1, 1)), 30.0)
-        write_mot(Path(tmp) / "angles.mot", names, values)
-        return (Path(tmp) / "angles.mot").read_bytes()
+def _mot(path):
+    theta = np.arange(3 * 2, dtype=float).reshape(3, 2) / 10
+    theta[1] = np.nan
+    write_mot(path, *angle_table(["a", "b"], theta, np.zeros((3, 3)), np.tile(np.eye(3), (3, 1, 1)), 30.0))
 
 
-MOT = _mot()
+MOT = written(_mot)
 
 
 @FUZZ

@@ -33,6 +33,10 @@ REDUCED = {2: {True: cv2.IMREAD_REDUCED_COLOR_2, False: cv2.IMREAD_REDUCED_GRAYS
            8: {True: cv2.IMREAD_REDUCED_COLOR_8, False: cv2.IMREAD_REDUCED_GRAYSCALE_8}}
 """OpenCV's flags decoding a JPEG at 1/2, 1/4 or 1/8 of its size, by reduction and colour."""
 
+NUMBERED = re.compile(r"^\d{6}\.(png|jpg)$")
+"""A frame's file name in ``frames/<cam>/``, ``silhouettes/<cam>/`` or a background clip's
+folder."""
+
 BACKGROUND_FRAMES = 30
 """The most frames of a background clip :meth:`Sequence.backgrounds` reads: enough for a
 standard deviation per pixel within about 13 % of its own (1/√(2n)), and a second of
@@ -94,18 +98,9 @@ class Sequence:
         ``cam0.mp4`` and ``cam0.avi``) are an error naming both, since either could be the
         take."""
         folder = self.path / "videos"
-        if not folder.is_dir():
-            return {}
-        names = {cam.name for cam in self.cameras}
-        found: dict[str, list[Path]] = {}
-        for path in sorted(folder.iterdir()):
-            if path.suffix.lower() in VIDEO_SUFFIXES and path.stem in names and path.is_file():
-                found.setdefault(path.stem, []).append(path)
-        for name, paths in found.items():
-            if len(paths) > 1:
-                raise SequenceError(f"{folder}: camera {name!r} has {len(paths)} videos "
-                                    f"({', '.join(p.name for p in paths)}); keep one")
-        return {name: paths[0] for name, paths in found.items()}
+        found = {cam.name: _at_most_one(_videos_named(folder, cam.name), folder, cam.name, "videos")
+                 for cam in self._native}
+        return {name: path for name, path in found.items() if path is not None}
 
     def _meta_from_videos(self, meta_path: Path) -> dict:
         """``meta.json``'s numbers for a sequence without one whose every camera is a
@@ -118,12 +113,10 @@ class Sequence:
                                 f"is a video: not {', '.join(missing)})")
         rates, counts = {}, {}
         for name, path in self._video_paths.items():
-            cap = cv2.VideoCapture(str(path))
-            if not cap.isOpened():
+            rates[name], counts[name] = _video_length(path)
+            if counts[name] <= 0:
                 raise SequenceError(f"{path}: not a readable video (camera {name!r}), and no meta.json says "
                                     f"how long the sequence is")
-            rates[name], counts[name] = cap.get(cv2.CAP_PROP_FPS), int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
-            cap.release()
         fps = float(np.median(list(rates.values())))
         if not fps > 0 or any(abs(r - fps) > 1e-3 * fps for r in rates.values()):
             said = ", ".join(f"{n} {r:g}" for n, r in rates.items())
@@ -177,21 +170,14 @@ class Sequence:
         folder = self.path / "background"
         found = [p for p in (folder / f"{cam.name}.png", folder / f"{cam.name}.jpg", folder / cam.name)
                  if p.exists()]
-        if folder.is_dir():
-            found += sorted(p for p in folder.iterdir()
-                            if p.stem == cam.name and p.suffix.lower() in VIDEO_SUFFIXES and p.is_file())
-        if len(found) > 1:
-            raise SequenceError(f"{folder}: camera {cam.name!r} has {len(found)} backgrounds "
-                                f"({', '.join(p.name for p in found)}); keep one")
-        if not found:
+        path = _at_most_one(found + _videos_named(folder, cam.name), folder, cam.name, "backgrounds")
+        if path is None:
             raise ViewError(folder / f"{cam.name}.png", f"missing (camera {cam.name!r}; nor is there a clip, "
                                                         f"background/{cam.name}/ or background/{cam.name}.mp4)")
-        (path,) = found
         if path.suffix.lower() in (".png", ".jpg"):
             images = [self._read(path, cam, colour=True)]
         elif path.is_dir():
-            numbered = re.compile(r"^\d{6}\.(png|jpg)$")
-            files = sorted(p for p in path.iterdir() if numbered.match(p.name))
+            files = sorted(p for p in path.iterdir() if NUMBERED.match(p.name))
             if not files:
                 raise ViewError(path, f"no numbered images (000000.png …) of the empty scene (camera {cam.name!r})")
             images = [self._read(files[i], cam, colour=True) for i in _spread(len(files), most)]
@@ -201,21 +187,18 @@ class Sequence:
 
     def _clip(self, path: Path, cam, most: int) -> list[np.ndarray]:
         """At most `most` frames of the video `path`, spread evenly over it."""
+        n = _video_length(path)[1]
+        if n <= 0:
+            raise ViewError(path, f"not a readable video (camera {cam.name!r})")
         cap = cv2.VideoCapture(str(path))
         try:
-            n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
-            if n <= 0:
-                raise ViewError(path, f"not a readable video (camera {cam.name!r})")
             images = []
             for i in _spread(n, most):
                 cap.set(cv2.CAP_PROP_POS_FRAMES, i)
                 ok, img = cap.read()
                 if not ok:
                     break  # a container that counts more frames than it holds
-                if img.shape[:2] != (cam.height, cam.width):
-                    raise ViewError(path, f"video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is "
-                                          f"calibrated for {cam.width}×{cam.height}", wrong_size=True)
-                images.append(img)
+                images.append(_sized(img, path, cam, "video"))
         finally:
             cap.release()
         if not images:
@@ -260,18 +243,15 @@ class Sequence:
     def frame_counts(self, silhouettes: bool = False) -> dict[str, int]:
         """Frames on disk per camera: numbered images in ``frames/<cam>/``, else the
         video's frame count; with `silhouettes`, the masks in ``silhouettes/<cam>/``."""
-        numbered = re.compile(r"^\d{6}\.(png|jpg)$")
         counts = {}
         for cam in self.cameras:
             folder = self.path / ("silhouettes" if silhouettes else "frames") / cam.name
             video = self._video_paths.get(cam.name)
             if folder.is_dir() or silhouettes or video is None:
-                counts[cam.name] = len({p.stem for p in folder.iterdir() if numbered.match(p.name)}) \
+                counts[cam.name] = len({p.stem for p in folder.iterdir() if NUMBERED.match(p.name)}) \
                     if folder.is_dir() else 0
             else:
-                cap = cv2.VideoCapture(str(video))
-                counts[cam.name] = int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) if cap.isOpened() else 0
-                cap.release()
+                counts[cam.name] = _video_length(video)[1]
         return counts
 
     def masks(self, frame: int) -> list[np.ndarray]:
@@ -323,12 +303,7 @@ class Sequence:
         img = cv2.imdecode(np.frombuffer(data, np.uint8), flag) if data else None
         if img is None:
             raise ViewError(path, f"not a readable image (camera {cam.name!r})")
-        if reduced:
-            return img
-        if img.shape[:2] != (cam.height, cam.width):
-            raise ViewError(path, f"image is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is calibrated for "
-                                  f"{cam.width}×{cam.height}", wrong_size=True)
-        return img
+        return img if reduced else _sized(img, path, cam, "image")
 
     def _video_frame(self, cam, frame: int) -> np.ndarray:
         path = self._video_paths[cam.name]
@@ -345,15 +320,45 @@ class Sequence:
         if not ok:
             raise ViewError(path, f"no frame {frame} (camera {cam.name!r})")
         self._video_pos[cam.name] = frame + 1
-        if img.shape[:2] != (cam.height, cam.width):
-            raise ViewError(path, f"video is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is calibrated for "
-                                  f"{cam.width}×{cam.height}", wrong_size=True)
-        return img
+        return _sized(img, path, cam, "video")
 
     def close(self) -> None:
         for cap in self._videos.values():
             cap.release()
         self._videos.clear()
+
+
+def _sized(img: np.ndarray, path: Path, cam, what: str) -> np.ndarray:
+    """`img` as read from `path` ("image" or "video", `what`), when it has `cam`'s size."""
+    if img.shape[:2] != (cam.height, cam.width):
+        raise ViewError(path, f"{what} is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is calibrated for "
+                              f"{cam.width}×{cam.height}", wrong_size=True)
+    return img
+
+
+def _videos_named(folder: Path, name: str) -> list[Path]:
+    """The videos (:data:`VIDEO_SUFFIXES`) in `folder` whose name is `name` and a suffix."""
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.iterdir() if p.stem == name and p.suffix.lower() in VIDEO_SUFFIXES and p.is_file())
+
+
+def _at_most_one(found: list[Path], folder: Path, name: str, what: str) -> Path | None:
+    """The one file of `found` (camera `name`'s `what`), None for none; more than one is
+    an error naming them all, since any of them could be the one meant."""
+    if len(found) > 1:
+        raise SequenceError(f"{folder}: camera {name!r} has {len(found)} {what} ({', '.join(p.name for p in found)}); "
+                            f"keep one")
+    return found[0] if found else None
+
+
+def _video_length(path: Path) -> tuple[float, int]:
+    """``(frames/s, frames)`` the video's container says, ``(0, 0)`` when it cannot be opened."""
+    cap = cv2.VideoCapture(str(path))
+    try:
+        return (cap.get(cv2.CAP_PROP_FPS), int(cap.get(cv2.CAP_PROP_FRAME_COUNT))) if cap.isOpened() else (0.0, 0)
+    finally:
+        cap.release()
 
 
 def _spread(n: int, most: int) -> list[int]:
