@@ -1106,6 +1106,8 @@ def test_a_sequence_read_at_a_smaller_scale_checks_files_against_their_own_size(
     halved = seq.image(3, "cam2").astype(int)
     resized = cv2.resize(Sequence(seq_path).image(3, "cam2"), (160, 120), interpolation=cv2.INTER_AREA)
     assert halved.shape == (120, 160, 3) and np.abs(halved - resized).mean() < 1.5
+    reduced = cv2.imdecode(np.frombuffer(jpg.tobytes(), np.uint8), cv2.IMREAD_REDUCED_COLOR_2)
+    assert np.array_equal(halved, reduced) and not np.array_equal(halved, resized)  # decoded reduced
     ok, jpg = cv2.imencode(".jpg", np.zeros((240, 319, 3), np.uint8) + 80)
     frame.with_suffix(".jpg").write_bytes(jpg.tobytes())
     with pytest.raises(ValueError, match=r"image is 319×240, camera 'cam2' is calibrated for 320×240"):
