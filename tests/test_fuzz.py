@@ -206,6 +206,7 @@ META = {"fps": 30, "frames": 3}
 @given(st.one_of(mutated(json.dumps(META).encode()), with_one_value_replaced(META)))
 @example(b'{"fps": 30, "frames": Infinity}')
 @example(b'{"fps": 1e400, "frames": 3}')
+@example(b'{"fps": 1, "frames": 1e20}')
 @example(b'{"fps": 30, "frames": 1' + b"0" * 400 + b"}")
 def test_meta_json(data):
     with tempfile.TemporaryDirectory() as tmp:

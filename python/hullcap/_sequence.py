@@ -37,6 +37,10 @@ NUMBERED = re.compile(r"^\d{6}\.(png|jpg)$")
 """A frame's file name in ``frames/<cam>/``, ``silhouettes/<cam>/`` or a background clip's
 folder."""
 
+MAX_FRAMES = 1_000_000
+"""The most frames a sequence may have: as many as six-digit file names number (over nine
+hours at 30 frames/s). A ``meta.json`` claiming more is refused as a mistake."""
+
 BACKGROUND_FRAMES = 30
 """The most frames of a background clip :meth:`Sequence.backgrounds` reads: enough for a
 standard deviation per pixel within about 13 % of its own (1/√(2n)), and a second of
@@ -77,9 +81,9 @@ class Sequence:
             frames = float(meta["frames"])
         except (KeyError, TypeError, ValueError, OverflowError) as e:
             raise SequenceError(f"{meta_path}: needs {{\"fps\": …, \"frames\": …}} ({e!r})") from e
-        if not (0 < self.fps < math.inf and 0 < frames < math.inf and frames == int(frames)):
-            raise SequenceError(f"{meta_path}: fps must be a positive number and frames a positive whole number, "
-                                f"got {meta['fps']!r} and {meta['frames']!r}")
+        if not (0 < self.fps < math.inf and 0 < frames <= MAX_FRAMES and frames == int(frames)):
+            raise SequenceError(f"{meta_path}: fps must be a positive number and frames a whole number from 1 to "
+                                f"{MAX_FRAMES:,}, got {meta['fps']!r} and {meta['frames']!r}")
         self.n_frames = int(frames)
         self._videos: dict[str, cv2.VideoCapture] = {}
         self._video_pos: dict[str, int] = {}
@@ -114,9 +118,9 @@ class Sequence:
         rates, counts = {}, {}
         for name, path in self._video_paths.items():
             rates[name], counts[name] = _video_length(path)
-            if counts[name] <= 0:
-                raise SequenceError(f"{path}: not a readable video (camera {name!r}), and no meta.json says "
-                                    f"how long the sequence is")
+            if not 0 < counts[name] <= MAX_FRAMES:
+                raise SequenceError(f"{path}: not a readable video (camera {name!r}; its container says "
+                                    f"{counts[name]} frames), and no meta.json says how long the sequence is")
         fps = float(np.median(list(rates.values())))
         if not fps > 0 or any(abs(r - fps) > 1e-3 * fps for r in rates.values()):
             said = ", ".join(f"{n} {r:g}" for n, r in rates.items())
