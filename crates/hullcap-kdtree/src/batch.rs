@@ -69,8 +69,19 @@ impl NormalKdTree {
     where
         R: Copy + Default + Send,
     {
+        let too_large = KdTreeError::AnswersTooLarge {
+            queries: queries.len(),
+            width,
+        };
+        let len = queries.len().checked_mul(width).ok_or(too_large.clone())?;
+        let filled = || {
+            let mut rows = Vec::new();
+            rows.try_reserve_exact(len).map_err(|_| too_large.clone())?;
+            rows.resize(len, R::default());
+            Ok::<_, KdTreeError>(rows)
+        };
         let order = self.leaf_order(queries);
-        let mut sorted = vec![R::default(); queries.len() * width];
+        let mut sorted = filled()?;
         let mut rows: Vec<&mut [R]> = sorted.chunks_mut(width.max(1)).collect();
         hullcap_core::for_each_chunk_mut(
             &mut rows,
@@ -84,7 +95,7 @@ impl NormalKdTree {
                 }
             },
         )?;
-        let mut out = vec![R::default(); queries.len() * width];
+        let mut out = filled()?;
         for (rank, &q) in order.iter().enumerate() {
             let q = q as usize;
             out[q * width..(q + 1) * width]

@@ -26,7 +26,7 @@ pub enum KdTreeError {
         /// The first bad row.
         row: usize,
     },
-    /// A normal has zero (or denormal) length and cannot be normalised.
+    /// A normal has zero length and cannot be normalised.
     #[error("{array}[{row}] has zero length; normals must be non-zero")]
     ZeroNormal {
         /// The array at fault.
@@ -43,6 +43,14 @@ pub enum KdTreeError {
         requirement: &'static str,
         /// What it was.
         value: f64,
+    },
+    /// The answers of a batch (queries × answers each) would not fit in memory.
+    #[error("{queries} queries of {width} answers each do not fit in memory")]
+    AnswersTooLarge {
+        /// The queries of the batch.
+        queries: usize,
+        /// The answers of each.
+        width: usize,
     },
     /// More points than the tree's 32-bit indices can hold.
     #[error("too many points ({0}); the kd-tree holds at most 2^32 - 1")]

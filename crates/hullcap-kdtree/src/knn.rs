@@ -33,7 +33,7 @@ impl NormalKdTree {
             &queries,
             k,
             threads,
-            || KBest::new(k),
+            || KBest::new(k.min(self.keys.len())), // slots past the tree's size stay empty
             |best, _, q, row| {
                 self.k_nearest_key(q, &gate, best, row);
             },
