@@ -61,11 +61,21 @@ fn normal_error(n: &[f64; 3], array: &'static str, row: usize) -> KdTreeError {
     }
 }
 
-/// `n / |n|`, or `None` when `n` is not finite or too short to normalise reliably.
+/// `n / |n|`, or `None` when `n` is not finite or zero.
 pub(crate) fn unit(n: &[f64; 3]) -> Option<[f64; 3]> {
-    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-    (len.is_finite() && len > f64::MIN_POSITIVE.sqrt())
-        .then(|| [n[0] / len, n[1] / len, n[2] / len])
+    let length = |n: &[f64; 3]| (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    let len = length(n);
+    if len.is_finite() && len > f64::MIN_POSITIVE.sqrt() {
+        return Some(n.map(|x| x / len));
+    }
+    // Its squares overflow or underflow: scaled by its largest component first.
+    let largest = n.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if !(n.iter().all(|x| x.is_finite()) && largest > 0.0) {
+        return None;
+    }
+    let scaled = n.map(|x| x / largest);
+    let len = length(&scaled);
+    Some(scaled.map(|x| x / len))
 }
 
 /// The key of `point` with `normal` rescaled to unit length (checked by [`validate`]).
@@ -145,5 +155,17 @@ mod tests {
             key(&[1.0, 2.0, 3.0], &[3.0, 4.0, 0.0], 2.0),
             [1.0, 2.0, 3.0, 1.2, 1.6, 0.0]
         );
+    }
+
+    #[test]
+    fn a_normal_of_any_finite_non_zero_length_is_a_direction() {
+        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|d| (a[d] - b[d]).abs() < 1e-15);
+        for scale in [1.0, 1e300, f64::MAX / 8.0, 1e-160, 1e-300, 5e-324] {
+            let n = unit(&[3.0 * scale, -4.0 * scale, 0.0]).expect("a direction");
+            assert!(close(n, [0.6, -0.8, 0.0]), "{scale:e}: {n:?}");
+        }
+        for bad in [[0.0; 3], [f64::NAN, 1.0, 0.0], [1.0, f64::INFINITY, 0.0]] {
+            assert_eq!(unit(&bad), None, "{bad:?}");
+        }
     }
 }
