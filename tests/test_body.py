@@ -51,7 +51,7 @@ def test_standard_link_model_has_the_papers_29_dof_and_canonical_joints():
         (lambda s: s["links"][1]["dofs"][0].update(axis=[0, 0, 0]), "link 'torso': DOF 0 has a zero"),
         (lambda s: s["links"][1]["dofs"][0].update(axis=[1, 0]), "axis must be 3"),
         (lambda s: s["links"][1]["dofs"][0].update(limits=[30, -30]),
-         "link 'torso': DOF 0 has limits .*lower must not exceed upper"),
+         "link 'torso': DOF 0 has limits .*lower not above upper"),
         (lambda s: s["links"].append(copy.deepcopy(s["links"][2])), "defined twice"),
         (lambda s: s["structure_links"][0].update(parent="tail"), "'tail' is not a link"),
         (lambda s: s["hierarchy"][3].remove("l_elbow"), "leaves joints out"),

@@ -77,3 +77,41 @@ def test_engine_errors_arrive_as_their_kind():
         coverage(triangle, [[0, 1, 3]], 10, 10)
     with pytest.raises(errors.ArrayError, match="width"):
         coverage(triangle, [[0, 1, 2]], 0, 10)
+
+
+def test_counts_out_of_all_reason_are_refused_not_a_crash():
+    """Each of these once aborted the interpreter, hung or raised a builtin exception that
+    named no argument (a sweep of the engine's calls with hostile values, 2026-11-28)."""
+    from hullcap._engine import guided_logit
+
+    tree = hullcap.NormalKDTree(np.random.default_rng(0).random((30, 3)), np.ones((30, 3)))
+    # 2 × 2^40 answers: asked of the allocator, it aborted the process.
+    with pytest.raises(errors.FitError, match="2 queries of 1099511627776 answers each do not fit in memory"):
+        tree.query_k(np.zeros((2, 3)), np.ones((2, 3)), 2**40)
+    # Past the tree's size the answers are padding; the search keeps only what exists.
+    index, distance = tree.query_k(np.zeros((2, 3)), np.ones((2, 3)), 1000)
+    assert (index[:, 30:] == -1).all() and np.isinf(distance[:, 30:]).all() and (index[:, :30] >= 0).all()
+    with pytest.raises(errors.OptionsError, match="FitOptions.iterations cannot be -1"):
+        hullcap.FitOptions(iterations=-1)
+    with pytest.raises(errors.OptionsError, match="FitOptions.rounds cannot be 1000000000000000000000"):
+        hullcap.FitOptions().replace(rounds=10**21)
+    with pytest.raises(TypeError, match="FitOptions.threads cannot be two"):
+        hullcap.FitOptions(threads="two")
+    image, evidence = np.zeros((4, 4, 3), np.uint8), np.zeros((4, 4), np.float32)
+    with pytest.raises(errors.ArrayError, match=r"origin\[0\] must be at least 0, got -1"):
+        guided_logit(evidence, image, (-1, 0), np.zeros((2, 2), np.float32), (0, 1, 1, 1, 1, 1))
+
+
+def test_normals_of_any_finite_non_zero_length_are_directions():
+    """A normal whose squares overflow (or underflow) a double is still a direction."""
+    rng = np.random.default_rng(1)
+    points, normals = rng.random((50, 3)), rng.normal(size=(50, 3))
+    queries, query_normals = rng.random((20, 3)), rng.normal(size=(20, 3))
+    want = hullcap.NormalKDTree(points, normals).query(queries, query_normals)
+    for scale in (1e300, 1e-300):
+        tree = hullcap.NormalKDTree(points, normals * scale)
+        index, distance = tree.query(queries, query_normals * scale)
+        np.testing.assert_array_equal(index, want[0])
+        np.testing.assert_allclose(distance, want[1], rtol=1e-12)
+    with pytest.raises(errors.FitError, match=r"normals\[0\] has zero length"):
+        hullcap.NormalKDTree(points[:1], np.zeros((1, 3)))

@@ -18,7 +18,7 @@ __version__: str
 
 def threads() -> int:
     """The threads the engine runs on: ``$HULLCAP_THREADS`` when it is a positive number,
-    else every core."""
+    else every core; at most 256 (a call asking for more gets 256)."""
 
 ArrayLike3 = npt.ArrayLike
 """Anything NumPy turns into an (N, 3) array of real numbers."""

@@ -108,7 +108,7 @@ impl Skeleton {
             dof.axis /= norm;
             if !(dof.lower.is_finite() && dof.upper.is_finite() && dof.lower <= dof.upper) {
                 return bad(format!(
-                    "DOF {k} has limits [{}, {}] (lower must not exceed upper)",
+                    "DOF {k} has limits [{}, {}] (both finite, radians, lower not above upper)",
                     dof.lower, dof.upper
                 ));
             }

@@ -20,10 +20,14 @@ pub struct WorkerPanicked(pub String);
 /// many (a batch worker given one core sets it to 1, docs/batch.md).
 const THREADS_VARIABLE: &str = "HULLCAP_THREADS";
 
+/// The most threads the engine starts for one call, whatever is asked: more than the
+/// cores only share them, and a count of millions would take minutes to start.
+pub const MAX_THREADS: usize = 256;
+
 /// The number of threads to use: `requested` when given and non-zero, else the positive
 /// whole number in [`THREADS_VARIABLE`] when it holds one, else every core
-/// `std::thread::available_parallelism` reports (1 if it cannot tell). The results of
-/// the engine do not depend on it, only its speed.
+/// `std::thread::available_parallelism` reports (1 if it cannot tell); at most
+/// [`MAX_THREADS`]. The results of the engine do not depend on it, only its speed.
 pub fn resolve_threads(requested: Option<usize>) -> usize {
     let from_environment = std::env::var(THREADS_VARIABLE).ok();
     choose_threads(requested, from_environment.as_deref(), cores)
@@ -43,14 +47,15 @@ fn choose_threads(
     from_environment: Option<&str>,
     cores: impl FnOnce() -> usize,
 ) -> usize {
-    match (
+    let chosen = match (
         requested,
         from_environment.and_then(|v| v.trim().parse::<usize>().ok()),
     ) {
         (Some(n), _) if n > 0 => n,
         (_, Some(n)) if n > 0 => n,
         _ => cores(),
-    }
+    };
+    chosen.min(MAX_THREADS)
 }
 
 /// Calls `f(offset, chunk)` on contiguous chunks of `out` from up to `threads` threads,
@@ -209,5 +214,13 @@ mod tests {
         for ignored in [None, Some("0"), Some("many"), Some("-1"), Some("")] {
             assert_eq!(choose_threads(None, ignored, cores), 8, "{ignored:?}");
         }
+    }
+
+    #[test]
+    fn no_call_starts_more_than_the_most_threads() {
+        let many = || 100_000;
+        assert_eq!(choose_threads(Some(1_000_000), None, many), MAX_THREADS);
+        assert_eq!(choose_threads(None, Some("1000000"), many), MAX_THREADS);
+        assert_eq!(choose_threads(None, None, many), MAX_THREADS);
     }
 }

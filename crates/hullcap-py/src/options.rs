@@ -179,7 +179,15 @@ impl FitOptions {
                         "FitOptions has no field '{key}'"
                     )));
                 }
-                obj.setattr(key.as_str(), value)?;
+                obj.setattr(key.as_str(), &value).map_err(|e| {
+                    // A whole number out of range (a negative count) or of the wrong type.
+                    let message = format!("FitOptions.{key} cannot be {value}: {}", e.value(py));
+                    if e.is_instance_of::<pyo3::exceptions::PyTypeError>(py) {
+                        pyo3::exceptions::PyTypeError::new_err(message)
+                    } else {
+                        OptionsError::new_err(message)
+                    }
+                })?;
             }
         }
         obj.borrow().engine()?;

@@ -498,11 +498,15 @@ pub(crate) fn guided_logit<'py>(
     py: Python<'py>,
     evidence: &Bound<'py, PyAny>,
     image: &Bound<'py, PyAny>,
-    origin: (usize, usize),
+    origin: (i64, i64),
     ramp: &Bound<'py, PyAny>,
     weights: (f64, f64, f64, f64, f64, f64),
-    colours: Option<(Bound<'py, PyAny>, usize)>,
+    colours: Option<(Bound<'py, PyAny>, i64)>,
 ) -> PyResult<Bound<'py, PyArrayDyn<f32>>> {
+    let origin = (
+        arrays::count(origin.0, "origin[0]", 0)?,
+        arrays::count(origin.1, "origin[1]", 0)?,
+    );
     let (evidence, [height, width]) =
         contiguous::<f32, 2>(evidence, "float32", "evidence", "(height, width)")?;
     let (image, shape) = contiguous::<u8, 3>(image, "uint8", "image", "(height, width, 3)")?;
@@ -515,7 +519,7 @@ pub(crate) fn guided_logit<'py>(
     let table = match &colours {
         Some((table, bins)) => Some((
             contiguous::<f32, 1>(table, "float32", "colours' table", "(bins³,)")?.0,
-            *bins,
+            arrays::count(*bins, "colours' bins", 0)?,
         )),
         None => None,
     };
