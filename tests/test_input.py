@@ -685,6 +685,30 @@ def test_sequence_errors_name_the_file(sequence, tmp_path):
         Sequence(bad)
 
 
+@pytest.mark.parametrize("form", ["8-bit 0/255", "8-bit labels 0/1", "16-bit labels 0/1", "16-bit 0/65535",
+                                  "colour, red on black", "cut-out (alpha)"])
+def test_masks_from_any_segmenter_read_as_the_same_silhouette(sequence, tmp_path, form):
+    """One truth mask written as segmenters write them: the mask read back is > 0 exactly
+    where the truth is (a 16-bit label of 1 once read as 0 everywhere, an 8-bit reduction)."""
+    seq_path = tmp_path / "seq"
+    shutil.copytree(sequence, seq_path, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    truth = cv2.imread(str(sequence / "truth" / "silhouettes" / "cam1" / "000005.png"), cv2.IMREAD_GRAYSCALE) > 0
+    image = cv2.imread(str(sequence / "frames" / "cam1" / "000005.png"))
+    written = {
+        "8-bit 0/255": truth.astype(np.uint8) * 255,
+        "8-bit labels 0/1": truth.astype(np.uint8),
+        "16-bit labels 0/1": truth.astype(np.uint16),
+        "16-bit 0/65535": truth.astype(np.uint16) * 65535,
+        "colour, red on black": np.dstack([np.zeros_like(truth), np.zeros_like(truth), truth]).astype(np.uint8),
+        "cut-out (alpha)": np.dstack([image, truth.astype(np.uint8) * 255]),
+    }[form]
+    (seq_path / "silhouettes" / "cam1").mkdir(parents=True)
+    cv2.imwrite(str(seq_path / "silhouettes" / "cam1" / "000005.png"), written)
+    mask = Sequence(seq_path).mask(5, "cam1")
+    assert mask.shape == truth.shape and mask.dtype == np.uint8
+    np.testing.assert_array_equal(mask > 0, truth)
+
+
 @pytest.mark.parametrize("suffix, fourcc", [(".mp4", "mp4v"), (".avi", "MJPG"), (".mov", "mp4v"), (".MKV", "MJPG")])
 def test_a_camera_filmed_as_a_video_reads_as_its_frames_in_any_common_container(sequence, tmp_path, suffix, fourcc):
     """cam0's frames written as one video in `suffix`'s container: the same frame count,

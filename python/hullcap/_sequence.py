@@ -263,8 +263,10 @@ class Sequence:
         return [self.mask(frame, c.name) for c in self.cameras]
 
     def mask(self, frame: int, camera) -> np.ndarray:
-        """The given silhouette of `camera` (name or index) in frame `frame`; resized by
-        `image_scale`, a pixel is subject where the subject covered at least half of it."""
+        """The given silhouette of `camera` (name or index) in frame `frame`, (H, W) uint8,
+        > 0 where the subject is (a mask of 16 bits, three channels or an alpha channel
+        read as docs/formats.md says); resized by `image_scale`, a pixel is subject where
+        the subject covered at least half of it."""
         self._check_frame(frame)
         cam = self._native[camera]
         mask = self._read(self.path / "silhouettes" / cam.name / f"{frame:06d}.png", cam, colour=False)
@@ -303,10 +305,12 @@ class Sequence:
             raise ViewError(path, f"truncated PNG (camera {cam.name!r})")
         # A JPEG of the camera's own size (its frame header says) may decode reduced.
         reduced = reduce > 1 and data.startswith(b"\xff\xd8") and _jpeg_size(data) == (cam.width, cam.height)
-        flag = REDUCED[reduce][colour] if reduced else cv2.IMREAD_COLOR if colour else cv2.IMREAD_GRAYSCALE
+        flag = REDUCED[reduce][colour] if reduced else cv2.IMREAD_COLOR if colour else cv2.IMREAD_UNCHANGED
         img = cv2.imdecode(np.frombuffer(data, np.uint8), flag) if data else None
         if img is None:
             raise ViewError(path, f"not a readable image (camera {cam.name!r})")
+        if not colour:
+            img = _mask_of(img)
         return img if reduced else _sized(img, path, cam, "image")
 
     def _video_frame(self, cam, frame: int) -> np.ndarray:
@@ -330,6 +334,18 @@ class Sequence:
         for cap in self._videos.values():
             cap.release()
         self._videos.clear()
+
+
+def _mask_of(img: np.ndarray) -> np.ndarray:
+    """A mask file as decoded (any depth, any channels) as one 8-bit channel, > 0 where the
+    subject is: a single channel as it is (16-bit values, which a reduction to 8 bits
+    would turn from 1 to 0, become 255); of three channels, any of them non-zero; of
+    four, the alpha channel alone (a cut-out, transparent where the background is)."""
+    if img.ndim == 3:
+        img = img[..., 3] if img.shape[2] == 4 else img.max(axis=2)
+    if img.dtype == np.uint8:
+        return img
+    return np.where(img > 0, 255, 0).astype(np.uint8)
 
 
 def _sized(img: np.ndarray, path: Path, cam, what: str) -> np.ndarray:
