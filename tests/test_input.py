@@ -709,6 +709,42 @@ def test_masks_from_any_segmenter_read_as_the_same_silhouette(sequence, tmp_path
     np.testing.assert_array_equal(mask > 0, truth)
 
 
+@pytest.mark.parametrize("suffix, fourcc", [(".mp4", "mp4v"), (".avi", "MJPG")])
+def test_a_mask_video_per_camera_reads_as_its_masks(sequence, tmp_path, suffix, fourcc):
+    """The truth masks of every camera written as one video each (a video matting tool's
+    output): the sequence has silhouettes, counts the videos' frames, and each mask read
+    back is the truth but for the codec's loss along the outline; a mask image beside the
+    video wins, and a video of another size is refused, naming it."""
+    seq_path = tmp_path / "seq"
+    shutil.copytree(sequence, seq_path, ignore=shutil.ignore_patterns("truth", "vertices.npy"))
+    truth_dir = sequence / "truth" / "silhouettes"
+    (seq_path / "silhouettes").mkdir()
+    cams = ("cam0", "cam1", "cam2", "cam3")
+    for cam in cams:
+        writer = cv2.VideoWriter(str(seq_path / "silhouettes" / f"{cam}{suffix}"), cv2.VideoWriter_fourcc(*fourcc),
+                                 30, (320, 240))
+        for frame in range(42):
+            writer.write(cv2.cvtColor(cv2.imread(str(truth_dir / cam / f"{frame:06d}.png"), 0), cv2.COLOR_GRAY2BGR))
+        writer.release()
+    seq = Sequence(seq_path)
+    assert seq.has_silhouettes and seq.frame_counts(silhouettes=True) == dict.fromkeys(cams, 42)
+    for frame in (7, 3, 30):  # out of order: the reader seeks
+        for cam in ("cam1", "cam3"):
+            truth = cv2.imread(str(truth_dir / cam / f"{frame:06d}.png"), 0) > 0
+            got = seq.mask(frame, cam) > 0
+            assert (got & truth).sum() / (got | truth).sum() > 0.97, (frame, cam)
+    (seq_path / "silhouettes" / "cam1").mkdir()
+    cv2.imwrite(str(seq_path / "silhouettes" / "cam1" / "000007.png"), np.zeros((240, 320), np.uint8))
+    assert not Sequence(seq_path).mask(7, "cam1").any()
+    seq.close()
+    writer = cv2.VideoWriter(str(seq_path / "silhouettes" / f"cam2{suffix}"), cv2.VideoWriter_fourcc(*fourcc), 30,
+                             (160, 120))
+    writer.write(np.zeros((120, 160, 3), np.uint8))
+    writer.release()
+    with pytest.raises(ValueError, match=rf"cam2{suffix}: mask is 160×120, camera 'cam2' is calibrated for 320×240"):
+        Sequence(seq_path)
+
+
 @pytest.mark.parametrize("suffix, fourcc", [(".mp4", "mp4v"), (".avi", "MJPG"), (".mov", "mp4v"), (".MKV", "MJPG")])
 def test_a_camera_filmed_as_a_video_reads_as_its_frames_in_any_common_container(sequence, tmp_path, suffix, fourcc):
     """cam0's frames written as one video in `suffix`'s container: the same frame count,

@@ -51,7 +51,7 @@ class Sequence:
     """A sequence folder: ``cameras.json``, ``meta.json`` (optional when every camera is a
     video), ``frames/<cam>/`` or ``videos/<cam>.mp4`` (or another of
     :data:`VIDEO_SUFFIXES`), ``background/<cam>.png`` (or a clip of the empty scene,
-    :meth:`backgrounds`), optional ``silhouettes/<cam>/``.
+    :meth:`backgrounds`), optional ``silhouettes/<cam>/`` or ``silhouettes/<cam>.mp4``.
 
     `image_scale` < 1 reads every image, mask and background resized by that factor, and
     :attr:`cameras` is the calibration of the resized images (:meth:`Camera.scaled`): for
@@ -73,7 +73,8 @@ class Sequence:
         # JPEG decodes at 1/2, 1/4 or 1/8 of its size for a fraction of the work: the
         # smallest of those still at least as large as the images asked for.
         self._jpeg_reduction = max((r for r in (1, 2, 4, 8) if 1 / r >= self.image_scale), default=1)
-        self._video_paths = self._find_videos()
+        self._video_paths = self._find_videos("videos")
+        self._mask_video_paths = self._find_videos("silhouettes")
         meta_path = self.path / "meta.json"
         meta = read_document(meta_path, SequenceError) if meta_path.is_file() else self._meta_from_videos(meta_path)
         try:
@@ -85,26 +86,30 @@ class Sequence:
             raise SequenceError(f"{meta_path}: fps must be a positive number and frames a whole number from 1 to "
                                 f"{MAX_FRAMES:,}, got {meta['fps']!r} and {meta['frames']!r}")
         self.n_frames = int(frames)
-        self._videos: dict[str, cv2.VideoCapture] = {}
-        self._video_pos: dict[str, int] = {}
+        self._videos: dict[Path, cv2.VideoCapture] = {}
+        self._video_pos: dict[Path, int] = {}
         for cam in self._native:
             has_frames = (self.path / "frames" / cam.name).is_dir()
-            has_masks = (self.path / "silhouettes" / cam.name).is_dir()
+            has_masks = self._has_masks(cam.name)
             if not (has_frames or cam.name in self._video_paths or has_masks):
                 raise SequenceError(f"{self.path}: camera {cam.name!r} has no frames/{cam.name}/, "
-                                    f"videos/{cam.name}.mp4 (or {', '.join(VIDEO_SUFFIXES[1:])}) "
-                                    f"or silhouettes/{cam.name}/")
+                                    f"videos/{cam.name}.mp4 (or {', '.join(VIDEO_SUFFIXES[1:])}), "
+                                    f"silhouettes/{cam.name}/ or silhouettes/{cam.name}.mp4")
             if has_masks:
                 self._check_mask_size(cam)
 
-    def _find_videos(self) -> dict[str, Path]:
-        """Each camera's video in ``videos/``, by camera name; two for one camera (say
-        ``cam0.mp4`` and ``cam0.avi``) are an error naming both, since either could be the
-        take."""
-        folder = self.path / "videos"
-        found = {cam.name: _at_most_one(_videos_named(folder, cam.name), folder, cam.name, "videos")
+    def _find_videos(self, folder: str) -> dict[str, Path]:
+        """Each camera's video in `folder` (``videos/``, or ``silhouettes/`` for mask
+        videos), by camera name; two for one camera (say ``cam0.mp4`` and ``cam0.avi``)
+        are an error naming both, since either could be the take."""
+        where = self.path / folder
+        found = {cam.name: _at_most_one(_videos_named(where, cam.name), where, cam.name, "videos")
                  for cam in self._native}
         return {name: path for name, path in found.items() if path is not None}
+
+    def _has_masks(self, name: str) -> bool:
+        """Whether camera `name` has silhouettes: a folder of masks or a mask video."""
+        return (self.path / "silhouettes" / name).is_dir() or name in self._mask_video_paths
 
     def _meta_from_videos(self, meta_path: Path) -> dict:
         """``meta.json``'s numbers for a sequence without one whose every camera is a
@@ -133,10 +138,14 @@ class Sequence:
         camera (another segmenter's resolution, a crop): refuse them at once, naming the
         first such file, rather than leave the view out of every frame."""
         first = next(iter(sorted((self.path / "silhouettes" / cam.name).glob("*.png"))), None)
-        if first is None:
+        video = self._mask_video_paths.get(cam.name)
+        if first is not None:
+            img = cv2.imread(str(first), cv2.IMREAD_GRAYSCALE)
+        elif video is not None:
+            first, img = video, _first_frame(video)
+        else:
             return
-        img = cv2.imread(str(first), cv2.IMREAD_GRAYSCALE)
-        if img is not None and img.shape != (cam.height, cam.width):
+        if img is not None and img.shape[:2] != (cam.height, cam.width):
             raise SequenceError(f"{first}: mask is {img.shape[1]}×{img.shape[0]}, camera {cam.name!r} is "
                              f"calibrated for {cam.width}×{cam.height}: silhouettes must have the size of "
                              f"the camera's images")
@@ -151,7 +160,7 @@ class Sequence:
 
     @property
     def has_silhouettes(self) -> bool:
-        return all((self.path / "silhouettes" / c.name).is_dir() for c in self.cameras)
+        return all(self._has_masks(c.name) for c in self.cameras)
 
     def background(self, camera) -> np.ndarray:
         """The empty scene as `camera` (name or index) sees it, (H, W, 3) uint8 BGR: its
@@ -225,7 +234,7 @@ class Sequence:
             path = png if png.is_file() or not jpg.is_file() else jpg
             img = self._read(path, cam, colour=True, reduce=self._jpeg_reduction)
         else:
-            path, img = video, self._video_frame(cam, frame)
+            path, img = video, self._video_frame(video, cam, frame)
         if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
             raise ViewError(path, f"blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
         return self._rescaled(img, cam.name)
@@ -246,12 +255,13 @@ class Sequence:
 
     def frame_counts(self, silhouettes: bool = False) -> dict[str, int]:
         """Frames on disk per camera: numbered images in ``frames/<cam>/``, else the
-        video's frame count; with `silhouettes`, the masks in ``silhouettes/<cam>/``."""
+        video's frame count; with `silhouettes`, the masks in ``silhouettes/<cam>/``, else
+        the mask video's frame count."""
         counts = {}
         for cam in self.cameras:
             folder = self.path / ("silhouettes" if silhouettes else "frames") / cam.name
-            video = self._video_paths.get(cam.name)
-            if folder.is_dir() or silhouettes or video is None:
+            video = (self._mask_video_paths if silhouettes else self._video_paths).get(cam.name)
+            if folder.is_dir() or video is None:
                 counts[cam.name] = len({p.stem for p in folder.iterdir() if NUMBERED.match(p.name)}) \
                     if folder.is_dir() else 0
             else:
@@ -269,7 +279,14 @@ class Sequence:
         the subject covered at least half of it."""
         self._check_frame(frame)
         cam = self._native[camera]
-        mask = self._read(self.path / "silhouettes" / cam.name / f"{frame:06d}.png", cam, colour=False)
+        path = self.path / "silhouettes" / cam.name / f"{frame:06d}.png"
+        video = self._mask_video_paths.get(cam.name)
+        if video is None or path.is_file():
+            mask = self._read(path, cam, colour=False)
+        else:
+            # A video's compression leaves small values round the subject and over the
+            # background: its masks are the pixels at least half on.
+            mask = np.where(self._video_frame(video, cam, frame).max(axis=2) >= 128, 255, 0).astype(np.uint8)
         if self.image_scale == 1:
             return mask
         return np.where(self._rescaled(np.where(mask > 0, 255, 0).astype(np.uint8), cam.name) >= 128, 255,
@@ -313,21 +330,22 @@ class Sequence:
             img = _mask_of(img)
         return img if reduced else _sized(img, path, cam, "image")
 
-    def _video_frame(self, cam, frame: int) -> np.ndarray:
-        path = self._video_paths[cam.name]
-        cap = self._videos.get(cam.name)
+    def _video_frame(self, path: Path, cam, frame: int) -> np.ndarray:
+        """Frame `frame` of camera `cam`'s video `path` (its frames or its masks), read on
+        from the frame before without seeking."""
+        cap = self._videos.get(path)
         if cap is None:
             cap = cv2.VideoCapture(str(path))
             if not cap.isOpened():
                 raise ViewError(path, f"not a readable video (camera {cam.name!r})")
-            self._videos[cam.name] = cap
-            self._video_pos[cam.name] = 0
-        if self._video_pos[cam.name] != frame:
+            self._videos[path] = cap
+            self._video_pos[path] = 0
+        if self._video_pos[path] != frame:
             cap.set(cv2.CAP_PROP_POS_FRAMES, frame)
         ok, img = cap.read()
         if not ok:
             raise ViewError(path, f"no frame {frame} (camera {cam.name!r})")
-        self._video_pos[cam.name] = frame + 1
+        self._video_pos[path] = frame + 1
         return _sized(img, path, cam, "video")
 
     def close(self) -> None:
@@ -370,6 +388,16 @@ def _at_most_one(found: list[Path], folder: Path, name: str, what: str) -> Path 
         raise SequenceError(f"{folder}: camera {name!r} has {len(found)} {what} ({', '.join(p.name for p in found)}); "
                             f"keep one")
     return found[0] if found else None
+
+
+def _first_frame(path: Path) -> np.ndarray | None:
+    """The video's first frame, None when it cannot be read."""
+    cap = cv2.VideoCapture(str(path))
+    try:
+        ok, img = cap.read() if cap.isOpened() else (False, None)
+        return img if ok else None
+    finally:
+        cap.release()
 
 
 def _video_length(path: Path) -> tuple[float, int]:
