@@ -649,8 +649,14 @@ def test_hull_skips_blank_views_and_refuses_bad_masks():
     assert abs(check_closed(tolerant.vertices, tolerant.faces)["volume"] - whole) < 0.1 * whole
     with pytest.raises(ValueError, match="every mask is empty"):
         visual_hull([np.zeros_like(m) for m in masks], cams)
-    with pytest.raises(ValueError, match="camera 'cam1': mask is"):
+    with pytest.raises(ValueError, match=r"camera 'cam1': mask of shape \(480, 100\), the camera's images are 640×480"):
         visual_hull([masks[0], masks[1][:, :100]] + masks[2:], cams)
+    with pytest.raises(ValueError, match=r"camera 'cam0': mask of shape \(480, 640, 3\)"):
+        visual_hull([np.dstack([masks[0]] * 3)] + masks[1:], cams)
+    # Some of the cameras, as a slice or a list of them, with their masks.
+    some = visual_hull(masks[:4], cams[:4])
+    assert isinstance(cams[:4], type(cams)) and cams[:4].names == cams.names[:4]
+    assert len(visual_hull(masks[:4], list(cams)[:4]).vertices) == len(some.vertices)
     with pytest.raises(ValueError, match="7 masks for 8 cameras"):
         visual_hull(masks[:7], cams)
 

@@ -169,6 +169,8 @@ class Cameras(Sequence[Camera]):
                 if c.name == i:
                     return c
             raise KeyError(f"no camera named {i!r}; cameras are {self.names}")
+        if isinstance(i, slice):
+            return Cameras(self._cameras[i])
         return self._cameras[i]
 
     def __iter__(self) -> Iterator[Camera]:

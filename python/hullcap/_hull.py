@@ -113,6 +113,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
             is empty (silhouettes that no point in the volume satisfies).
     """
     report = report if report is not None else HullReport()
+    cameras = cameras if isinstance(cameras, Cameras) else Cameras(cameras)  # a list of some of them, say
     if len(masks) != len(cameras):
         raise HullError(f"{len(masks)} masks for {len(cameras)} cameras")
     if not 0 < voxel_size < math.inf:
@@ -125,13 +126,14 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     for i, (cam, m) in enumerate(zip(cameras, masks)):
         m = np.asarray(m)
         if m.shape != (cam.height, cam.width):
-            raise HullError(f"camera {cam.name!r}: mask is {m.shape[::-1]} pixels, the camera {cam.width}×{cam.height}")
+            raise HullError(f"camera {cam.name!r}: mask of shape {m.shape}, the camera's images are "
+                            f"{cam.width}×{cam.height}: a mask is a ({cam.height}, {cam.width}) array")
         if not m.any():
             report.skipped[cam.name] = "empty mask"
             continue
         prior = None if priors is None else np.asarray(priors[i])
         if prior is not None and prior.shape != m.shape:
-            raise HullError(f"camera {cam.name!r}: prior is {prior.shape[::-1]} pixels, the mask {m.shape[::-1]}")
+            raise HullError(f"camera {cam.name!r}: prior of shape {prior.shape}, the mask's {m.shape}")
         seen.append((cam, m, prior))
     views = over_views(lambda view: _carving_view(*view), seen)
     if not views:
