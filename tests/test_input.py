@@ -692,7 +692,7 @@ def test_sequence_errors_name_the_file(sequence, tmp_path):
 
 
 @pytest.mark.parametrize("form", ["8-bit 0/255", "8-bit labels 0/1", "16-bit labels 0/1", "16-bit 0/65535",
-                                  "colour, red on black", "cut-out (alpha)"])
+                                  "colour, red on black", "cut-out (alpha)", "cut-out, soft edge"])
 def test_masks_from_any_segmenter_read_as_the_same_silhouette(sequence, tmp_path, form):
     """One truth mask written as segmenters write them: the mask read back is > 0 exactly
     where the truth is (a 16-bit label of 1 once read as 0 everywhere, an 8-bit reduction)."""
@@ -707,6 +707,9 @@ def test_masks_from_any_segmenter_read_as_the_same_silhouette(sequence, tmp_path
         "16-bit 0/65535": truth.astype(np.uint16) * 65535,
         "colour, red on black": np.dstack([np.zeros_like(truth), np.zeros_like(truth), truth]).astype(np.uint8),
         "cut-out (alpha)": np.dstack([image, truth.astype(np.uint8) * 255]),
+        # A matte's fringe: the background a third opaque where it borders the subject.
+        "cut-out, soft edge": np.dstack([image, np.where(truth, 255, 85 * cv2.dilate(truth.astype(np.uint8),
+                                                                                 np.ones((3, 3)))).astype(np.uint8)]),
     }[form]
     (seq_path / "silhouettes" / "cam1").mkdir(parents=True)
     cv2.imwrite(str(seq_path / "silhouettes" / "cam1" / "000005.png"), written)

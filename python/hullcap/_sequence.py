@@ -358,9 +358,13 @@ def _mask_of(img: np.ndarray) -> np.ndarray:
     """A mask file as decoded (any depth, any channels) as one 8-bit channel, > 0 where the
     subject is: a single channel as it is (16-bit values, which a reduction to 8 bits
     would turn from 1 to 0, become 255); of three channels, any of them non-zero; of
-    four, the alpha channel alone (a cut-out, transparent where the background is)."""
+    four, the alpha channel alone, at least half opaque (a cut-out: transparent where the
+    background is, its edge pixels as opaque as the subject covers them)."""
+    if img.ndim == 3 and img.shape[2] == 4:
+        alpha = img[..., 3]
+        return np.where(alpha > np.iinfo(alpha.dtype).max // 2, 255, 0).astype(np.uint8)
     if img.ndim == 3:
-        img = img[..., 3] if img.shape[2] == 4 else img.max(axis=2)
+        img = img.max(axis=2)
     if img.dtype == np.uint8:
         return img
     return np.where(img > 0, 255, 0).astype(np.uint8)
