@@ -82,7 +82,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
 
     Args:
         masks: one (H, W) uint8 mask per camera, in the cameras' order (non-zero = subject).
-        cameras: the calibration.
+        cameras: the calibration: :class:`Cameras`, or a slice or list of some of them.
         voxel_size: the finest voxel (metres).
         bounds: ``((x0, y0, z0), (x1, y1, z1))`` capture volume; default: the region every
             camera sees (:func:`capture_volume`).
