@@ -331,8 +331,8 @@ class Sequence:
         return img if reduced else _sized(img, path, cam, "image")
 
     def _video_frame(self, path: Path, cam, frame: int) -> np.ndarray:
-        """Frame `frame` of camera `cam`'s video `path` (its frames or its masks), read on
-        from the frame before without seeking."""
+        """Frame `frame` of camera `cam`'s video `path` (its frames or its masks); the
+        reader seeks only when that is not the frame after the one it read last."""
         cap = self._videos.get(path)
         if cap is None:
             cap = cv2.VideoCapture(str(path))
