@@ -153,3 +153,33 @@ def test_posing_and_fitting(template, theta, rotation, translation, points, norm
     options = _engine.FitOptions(iterations=max(iterations, 1), rounds=1)
     survives(lambda: _engine.fit(rig, target, theta, rotation, translation, [[0], [1, 2]], options, model_points))
     survives(lambda: _engine.evaluate(rig, target, [theta], [rotation], [translation], options, model_points))
+
+
+@FUZZ
+@given(st.lists(st.integers(-2, 3), max_size=4), rows3(), st.lists(st.integers(-1, 4), max_size=3), rows3(),
+       shaped((2, 2)), rows3(), rows3(), shaped((5, 1)), shaped((5, 1)))
+def test_building_a_rig(parents, origins, dof_links, axes, limits, vertices, normals, weight_links, weights):
+    survives(lambda: _engine.link_tree_problem(parents, origins, dof_links, axes, limits))
+    survives(lambda: _engine.Rig(parents, origins, dof_links, axes, limits, vertices, normals,
+                                 np.asarray(weight_links).astype(np.int64), weights))
+
+
+@FUZZ
+@given(st.lists(st.tuples(st.integers(-2, 30), shaped((3, 3))), max_size=2),
+       st.lists(st.tuples(st.integers(-2, 30), shaped((3,))), max_size=2), st.lists(REALS, max_size=2),
+       st.lists(REALS, max_size=2), REALS, rows3(), rows3(), st.integers(1, 2))
+def test_fitting_a_shape(template, stretches, shifts, initial, sigma, distance, points, normals, iterations):
+    try:
+        shape = _engine.Shape(template._rig, [stretches], [shifts], [[]])
+    except (HullcapError, TypeError):
+        return
+    survives(lambda: shape.rest(initial))
+    survives(lambda: shape.map_points(initial, [0, 1], points))
+    try:
+        target = _engine.Target(points, normals)
+    except (HullcapError, TypeError):
+        return
+    zeros = [0.0] * template.n_dofs
+    options = _engine.FitOptions(iterations=iterations, rounds=1)
+    survives(lambda: _engine.fit_shape(shape, initial, [target], [zeros], [np.eye(3)], [np.zeros(3)], sigma,
+                                       distance, options))

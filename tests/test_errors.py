@@ -115,3 +115,20 @@ def test_normals_of_any_finite_non_zero_length_are_directions():
         np.testing.assert_allclose(distance, want[1], rtol=1e-12)
     with pytest.raises(errors.FitError, match=r"normals\[0\] has zero length"):
         hullcap.NormalKDTree(points[:1], np.zeros((1, 3)))
+
+
+def test_small_arrays_of_an_argument_are_read_from_anything_numpy_reads():
+    """A shape's shifts and a root pose as lists, or of the wrong size: the lists were an
+    AttributeError ('list' has no 'reshape'), an empty shift NumPy's own ValueError."""
+    from hullcap._engine import Shape
+
+    model = BodyModel.template()
+    shape = Shape(model._rig, [[]], [[(0, [0.0, 0.0, 0.01])]], [[]])
+    centres, _ = shape.rest([1.0])
+    np.testing.assert_allclose(centres - shape.rest([0.0])[0], np.tile([0.0, 0.0, 0.01], (len(centres), 1)))
+    with pytest.raises(errors.ArrayError, match="shape shift must be 3 values"):
+        Shape(model._rig, [[]], [[(0, np.array([]))]], [[]])
+    with pytest.raises(errors.ArrayError, match="root_rotation must be a 3×3 matrix"):
+        model._rig.pose(np.zeros(model.n_dofs).tolist(), [[1.0, 0.0], [0.0, 1.0]])
+    vertices, *_ = model._rig.pose(np.zeros(model.n_dofs).tolist(), np.eye(3).tolist(), [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(vertices, model.pose(np.zeros(model.n_dofs), np.eye(3), [0.0, 0.0, 1.0]).vertices)

@@ -76,6 +76,24 @@ pub(crate) fn float_rows<'py, const W: usize>(
     Ok(Rows(contiguous(obj, name, tail, "float64")?.extract()?))
 }
 
+/// `obj` as the one small array an argument is (a 3-vector, a 3×3 matrix: `what` says
+/// which), its `W` values row-major; anything NumPy cannot read as `W` real numbers is a
+/// `ValueError` naming `name`.
+pub(crate) fn one_array<const W: usize>(
+    obj: &Bound<'_, PyAny>,
+    name: &str,
+    what: &str,
+) -> PyResult<[f64; W]> {
+    let np = obj.py().import("numpy")?;
+    let wrong = || ArrayError::new_err(format!("{name} must be {what}"));
+    let arr = np.call_method1("asarray", (obj,)).map_err(|_| wrong())?;
+    if arr.getattr("size")?.extract::<usize>()? != W {
+        return Err(wrong());
+    }
+    let one = arr.call_method1("reshape", ((1usize, W),))?;
+    Ok(float_rows::<W>(&one, name, &[W])?.rows()[0])
+}
+
 /// `obj` as an (N, 3) float64 C-contiguous array.
 pub(crate) fn rows3<'py>(obj: &Bound<'py, PyAny>, name: &str) -> PyResult<Rows3<'py>> {
     float_rows(obj, name, &[3])

@@ -1,6 +1,6 @@
 //! The body model's engine: geodesic skin weights and the rig (skinning, derivatives).
 
-use crate::arrays::{self, float_rows, index_rows, rows3};
+use crate::arrays::{self, float_rows, index_rows, one_array, rows3};
 use crate::call::ArrayError;
 use crate::call::detached;
 use hullcap_body::{
@@ -154,22 +154,11 @@ pub(crate) fn root_pose(
 ) -> PyResult<RootPose> {
     let mut root = RootPose::default();
     if let Some(r) = rotation {
-        let rows = float_rows::<9>(
-            &r.call_method1("reshape", ((1, 3, 3),))
-                .map_err(|_| ArrayError::new_err("root_rotation must be a 3×3 matrix"))?,
-            "root_rotation",
-            &[3, 3],
-        )?;
-        root.rotation = Matrix3::from_row_slice(&rows.rows()[0]);
+        root.rotation =
+            Matrix3::from_row_slice(&one_array::<9>(r, "root_rotation", "a 3×3 matrix")?);
     }
     if let Some(t) = translation {
-        let rows = float_rows::<3>(
-            &t.call_method1("reshape", ((1, 3),))
-                .map_err(|_| ArrayError::new_err("root_translation must have 3 values"))?,
-            "root_translation",
-            &[3],
-        )?;
-        root.translation = Vector3::from(rows.rows()[0]);
+        root.translation = Vector3::from(one_array::<3>(t, "root_translation", "3 values")?);
     }
     Ok(root)
 }
@@ -359,19 +348,14 @@ impl Shape {
         };
         let mut params = Vec::with_capacity(stretches.len());
         let vector = |c: &Bound<'_, PyAny>, what| -> PyResult<Vector3<f64>> {
-            let rows = float_rows::<3>(&c.call_method1("reshape", ((1, 3),))?, what, &[3])?;
-            Ok(Vector3::from(rows.rows()[0]))
+            Ok(Vector3::from(one_array::<3>(c, what, "3 values")?))
         };
         for ((st, sh), ce) in stretches.iter().zip(&shifts).zip(&centres) {
             let mut p = ShapeParameter::default();
             for (j, m) in st {
-                let rows = float_rows::<9>(
-                    &m.call_method1("reshape", ((1, 3, 3),))?,
-                    "shape stretch",
-                    &[3, 3],
-                )?;
+                let stretch = one_array::<9>(m, "shape stretch", "a 3×3 matrix")?;
                 p.stretches
-                    .push((link(*j)?, Matrix3::from_row_slice(&rows.rows()[0])));
+                    .push((link(*j)?, Matrix3::from_row_slice(&stretch)));
             }
             for (j, c) in sh {
                 p.shifts.push((link(*j)?, vector(c, "shape shift")?));
