@@ -164,6 +164,31 @@ def _calib_show(args) -> int:
     return 0
 
 
+def _calib_check(args) -> int:
+    from hullcap._agreement import describe_agreement, draw_agreement, view_agreement
+    from hullcap._sequence import Sequence
+    from hullcap._tracking import Tracker, TrackerOptions
+    from hullcap.errors import OptionsError, ViewError
+
+    seq = Sequence(args.sequence)
+    if not 0 <= args.frame < len(seq):
+        raise OptionsError(f"--frame {args.frame}: {args.sequence} has frames 0 to {len(seq) - 1}")
+    tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=not args.ignore_silhouettes))
+    masks = tracker.masks(args.frame)
+    agreements = view_agreement(masks, seq.cameras, args.voxel)
+    print(describe_agreement(agreements, args.frame))
+    images = []
+    for cam in seq.cameras:
+        try:
+            images.append(seq.image(args.frame, cam.name))
+        except ViewError:
+            images.append(None)  # masks without frames, or a broken image: the silhouette alone
+    picture = Path(args.picture) if args.picture else Path(args.sequence) / "cameras_check.png"
+    draw_agreement(picture, images, masks, seq.cameras, agreements, args.voxel)
+    print(f"every view, green where the others agree and red where they carve its silhouette away: {picture}")
+    return 0
+
+
 def _volume(text: str):
     """``--volume x0,y0,z0,x1,y1,z1`` → (x0, y0, z0, x1, y1, z1)."""
     try:
@@ -279,9 +304,10 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--out", help="keep the sequence and results here (default: a temporary folder)")
     d.set_defaults(run=_demo)
 
-    c = sub.add_parser("calib", help="import a calibration, or show a rig", description=(
+    c = sub.add_parser("calib", help="import a calibration, show a rig, or check it on a sequence", description=(
         "Import other tools' calibrations into cameras.json, or describe one: each camera's centre, "
-        "viewing direction and size, the capture volume, and a top-view picture of the rig."))
+        "viewing direction and size, the capture volume, and a top-view picture of the rig; or check "
+        "on a sequence's frame that the cameras agree on the person."))
     csub = c.add_subparsers(dest="calib_command", required=True)
     ci = csub.add_parser("import", help="write cameras.json from EasyMocap, Pose2Sim or OpenCV files",
                          description="Write cameras.json from another tool's calibration files.")
@@ -301,6 +327,18 @@ def build_parser() -> argparse.ArgumentParser:
     cs.add_argument("cameras", help="a cameras.json")
     cs.add_argument("--picture", help="the top view to write (default: next to the file, .png)")
     cs.set_defaults(run=_calib_show)
+    ck = csub.add_parser("check", help="check that a sequence's cameras agree on the person",
+                         description="Carve the visual hull of one frame from every view and from every view but "
+                                     "one: print how much of each camera's silhouette the others agree with and "
+                                     "which camera disagrees (a wrong calibration, or a wrong background), and "
+                                     "write a picture of every view showing where.")
+    ck.add_argument("sequence", help="the sequence folder")
+    ck.add_argument("--frame", type=int, default=0, help="the frame to check (default 0, the calibration pose)")
+    ck.add_argument("--picture", help="the picture to write (default: SEQUENCE/cameras_check.png)")
+    ck.add_argument("--voxel", type=float, default=0.01, help="visual hull voxel size in metres (default 0.01)")
+    ck.add_argument("--ignore-silhouettes", action="store_true",
+                    help="subtract the background even if silhouettes/ exist")
+    ck.set_defaults(run=_calib_check)
 
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
         "Write a finished run's motion (its pose.npz and model/) in another format."))
