@@ -132,3 +132,22 @@ def test_small_arrays_of_an_argument_are_read_from_anything_numpy_reads():
         model._rig.pose(np.zeros(model.n_dofs).tolist(), [[1.0, 0.0], [0.0, 1.0]])
     vertices, *_ = model._rig.pose(np.zeros(model.n_dofs).tolist(), np.eye(3).tolist(), [0.0, 0.0, 1.0])
     np.testing.assert_allclose(vertices, model.pose(np.zeros(model.n_dofs), np.eye(3), [0.0, 0.0, 1.0]).vertices)
+
+
+def test_the_python_calls_take_what_a_user_passes_first(tmp_path):
+    """A tracker given a folder's path instead of a Sequence (an AttributeError on 'str'
+    before), a subject built from an empty or non-finite hull (NumPy's own ValueError)."""
+    from hullcap._mesh import Surface
+
+    with pytest.raises(errors.SequenceError, match="no such sequence folder"):
+        hullcap.Tracker(str(tmp_path / "nowhere"))
+    cams = ring(4, radius=3.0, width=64, height_px=48)
+    (tmp_path / "cameras.json").write_text(json.dumps({"units": "m", "cameras": [c.to_dict() for c in cams]}))
+    (tmp_path / "meta.json").write_text(json.dumps({"fps": 30, "frames": 1}))
+    for cam in cams:
+        (tmp_path / "frames" / cam.name).mkdir(parents=True)
+    assert isinstance(hullcap.Tracker(tmp_path).sequence, Sequence)
+    with pytest.raises(errors.FitError, match="hull 0 is empty"):
+        hullcap.build_subject(Surface(np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3))))
+    with pytest.raises(errors.FitError, match="hull 0 is not finite"):
+        hullcap.build_subject(Surface(np.full((4, 3), np.nan), np.zeros((0, 3), np.int64), np.ones((4, 3))))

@@ -222,6 +222,10 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     if poses is not None and len(poses) != len(hulls):
         raise FitError(f"{len(poses)} starting poses for {len(hulls)} hulls")
     template = template or BodyModel.template()
+    for i, hull in enumerate(hulls):
+        vertices = np.asarray(hull.vertices)
+        if len(vertices) == 0 or not np.isfinite(vertices).all():
+            raise FitError(f"hull {i} is {'empty' if len(vertices) == 0 else 'not finite'}: no person to fit")
     height = _height(hulls[0].vertices)
     if not options.stature[0] <= height <= options.stature[1]:
         raise FitError(f"the first hull is {height:.2f} m tall: not a person in the calibration pose "

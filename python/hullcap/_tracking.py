@@ -30,6 +30,7 @@ every output is written, lets an interrupted run resume where it stopped.
 from __future__ import annotations
 
 import io
+import os
 import time
 import warnings
 from collections import defaultdict
@@ -70,14 +71,14 @@ class Tracker:
     """Tracks a sequence folder (see the module documentation).
 
     Args:
-        sequence: the input.
+        sequence: the input: a :class:`Sequence`, or its folder.
         model: the subject's model from an earlier run (``None``: build it).
         options: see :class:`TrackerOptions`.
     """
 
-    def __init__(self, sequence: Sequence, model: BodyModel | None = None, options: TrackerOptions | None = None,
-                 bounds=None):
-        self.sequence = sequence
+    def __init__(self, sequence: Sequence | str | os.PathLike, model: BodyModel | None = None,
+                 options: TrackerOptions | None = None, bounds=None):
+        self.sequence = sequence = sequence if isinstance(sequence, Sequence) else Sequence(sequence)
         self.model = model
         self.options = options or TrackerOptions()
         if bounds is None:
