@@ -147,6 +147,10 @@ def test_the_python_calls_take_what_a_user_passes_first(tmp_path):
     for cam in cams:
         (tmp_path / "frames" / cam.name).mkdir(parents=True)
     assert isinstance(hullcap.Tracker(tmp_path).sequence, Sequence)
+    with pytest.raises(TypeError, match="for the file '.*cameras.json' use Cameras.load"):
+        visual_hull([np.zeros((48, 64), np.uint8)] * 4, str(tmp_path / "cameras.json"))
+    with pytest.raises(TypeError, match="Cameras takes Camera objects, got a dict"):
+        hullcap.Cameras([c.to_dict() for c in cams])
     with pytest.raises(errors.FitError, match="hull 0 is empty"):
         hullcap.build_subject(Surface(np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3))))
     with pytest.raises(errors.FitError, match="hull 0 is not finite"):

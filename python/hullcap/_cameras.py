@@ -9,6 +9,7 @@ top-left pixel. Besides our own ``cameras.json``, the calibrations of EasyMocap
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -151,7 +152,12 @@ class Cameras(Sequence[Camera]):
     """An ordered set of cameras with unique names."""
 
     def __init__(self, cameras: Sequence[Camera]):
+        if isinstance(cameras, str | os.PathLike):
+            raise TypeError(f"Cameras takes Camera objects; for the file {str(cameras)!r} use Cameras.load")
         self._cameras = tuple(cameras)
+        if not all(isinstance(c, Camera) for c in self._cameras):
+            wrong = next(type(c).__name__ for c in self._cameras if not isinstance(c, Camera))
+            raise TypeError(f"Cameras takes Camera objects, got a {wrong}")
         names = [c.name for c in self._cameras]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
