@@ -155,9 +155,9 @@ class Cameras(Sequence[Camera]):
         if isinstance(cameras, str | os.PathLike):
             raise TypeError(f"Cameras takes Camera objects; for the file {str(cameras)!r} use Cameras.load")
         self._cameras = tuple(cameras)
-        if not all(isinstance(c, Camera) for c in self._cameras):
-            wrong = next(type(c).__name__ for c in self._cameras if not isinstance(c, Camera))
-            raise TypeError(f"Cameras takes Camera objects, got a {wrong}")
+        wrong = [type(c).__name__ for c in self._cameras if not isinstance(c, Camera)]
+        if wrong:
+            raise TypeError(f"Cameras takes Camera objects, got a {wrong[0]}")
         names = [c.name for c in self._cameras]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
