@@ -228,13 +228,13 @@ class Sequence:
         self._check_frame(frame)
         cam = self._native[camera]
         png = self.path / "frames" / cam.name / f"{frame:06d}.png"
-        jpg = png.with_suffix(".jpg")
+        path = next((p for p in (png, png.with_suffix(".jpg")) if p.is_file()), None)
         video = self._video_paths.get(cam.name)
-        if png.is_file() or jpg.is_file() or video is None:
-            path = png if png.is_file() or not jpg.is_file() else jpg
-            img = self._read(path, cam, colour=True, reduce=self._jpeg_reduction)
-        else:
+        if path is None and video is not None:
             path, img = video, self._video_frame(video, cam, frame)
+        else:  # a missing image is the PNG's error
+            path = path or png
+            img = self._read(path, cam, colour=True, reduce=self._jpeg_reduction)
         if (img[::16, ::16] == img.flat[0]).all() and (img == img.flat[0]).all():
             raise ViewError(path, f"blank image (every pixel {img.flat[0]}; camera {cam.name!r}, frame {frame})")
         return self._rescaled(img, cam.name)
@@ -261,11 +261,10 @@ class Sequence:
         for cam in self.cameras:
             folder = self.path / ("silhouettes" if silhouettes else "frames") / cam.name
             video = (self._mask_video_paths if silhouettes else self._video_paths).get(cam.name)
-            if folder.is_dir() or video is None:
-                counts[cam.name] = len({p.stem for p in folder.iterdir() if NUMBERED.match(p.name)}) \
-                    if folder.is_dir() else 0
+            if folder.is_dir():
+                counts[cam.name] = len({p.stem for p in folder.iterdir() if NUMBERED.match(p.name)})
             else:
-                counts[cam.name] = _video_length(video)[1]
+                counts[cam.name] = 0 if video is None else _video_length(video)[1]
         return counts
 
     def masks(self, frame: int) -> list[np.ndarray]:
