@@ -110,9 +110,10 @@ def test_a_session_without_session_toml_is_every_sequence_folder(tmp_path):
 def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_path):
     takes = load_session(_session(tmp_path, '[defaults]\nvoxel = 0.02\n[subjects]\np = "b"\n'
                                             '[takes]\na = { subject = "p", frames = 7 }\n'
-                                            'b = { frames = 9, image_scale = 0.5 }\n'))
-    assert [(t.name, t.subject, t.calibration, t.options.voxel, t.options.frames, t.options.image_scale)
-            for t in takes] == [("b", "p", None, 0.02, 9, 0.5), ("a", "p", "b", 0.02, 7, 1.0)]
+                                            'b = { frames = 9, image_scale = 0.5, leave_out = ["cam3"] }\n'))
+    assert [(t.name, t.subject, t.calibration, t.options.voxel, t.options.frames, t.options.image_scale,
+             t.options.leave_out) for t in takes] == [("b", "p", None, 0.02, 9, 0.5, ("cam3",)),
+                                                      ("a", "p", "b", 0.02, 7, 1.0, ())]
 
 
 @pytest.mark.parametrize("toml, message", [
@@ -124,6 +125,8 @@ def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_pat
     ("[defaults]\nimage_scale = 2\n", "image_scale must be a fraction in (0, 1], got 2"),
     ("[defaults]\nvoxel = inf\n", "[defaults]: voxel must be a positive number, got inf"),
     ("[takes]\na = { volume = [0, 0, 0, 1, 1, nan] }\n", "volume must be six numbers"),
+    ("[takes]\na = { cameras = \"cam0\" }\n", 'cameras must be a list of camera names, ["cam0", "cam2"]'),
+    ("[defaults]\nleave_out = [\"\"]\n", "leave_out must be a list of camera names"),
     ("[takes]\na = \"nobody\"\n", "subject 'nobody' has no calibration take in [subjects]"),
     ("[subjects]\np = \"c\"\n", "[subjects] p: "),
     ("[subjects]\np = \"../a\"\n", "must be the name of a folder directly in the session"),

@@ -204,3 +204,40 @@ def test_bad_run_options_are_refused_before_anything_is_tracked(clean, tmp_path)
         with pytest.raises(OptionsError):
             synthesize(tmp_path / "synth", "squat", 4, show_progress=False, **kwargs)
         assert not (tmp_path / "synth").exists()
+
+
+def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch, capsys):
+    import hullcap.export as export
+
+    seq = copy(clean, tmp_path)
+    shutil.rmtree(seq / "frames" / "cam2")
+    with pytest.raises(SequenceError, match="camera 'cam2' has no frames/cam2/"):
+        Sequence(seq)
+    five = Sequence(seq, leave_out=["cam2"])
+    assert five.cameras.names == ["cam0", "cam1", "cam3", "cam4", "cam5"] and "5 of 6 cameras" in repr(five)
+    assert Sequence(seq, cameras=["cam4", "cam0"]).cameras.names == ["cam0", "cam4"]  # the file's order
+    for keep, leave_out, message in (
+            (["cam9"], (), r"no camera named 'cam9'; the cameras are cam0, cam1, cam2"),
+            (None, ["cam2", "cam2"], "camera 'cam2' named twice"),
+            (["cam0", "cam1"], ["cam1"], "camera 'cam1' named twice"),
+            ([], (), "no camera left of cam0"),
+            (["cam3"], (), r"only camera 'cam3' is left of 6; a visual hull needs at least 2")):
+        with pytest.raises(SequenceError, match=message):
+            Sequence(seq, cameras=keep, leave_out=leave_out)
+    out = tmp_path / "out"
+    assert main(["track", str(seq), "--out", str(out), "--leave-out", "cam2", "--frames", "2",
+                 "--no-refine-joints"]) == 0
+    assert "5 of 6 cameras" in capsys.readouterr().out
+    assert sorted(p.stem for p in (out / "overlay").glob("*.mp4")) == five.cameras.names
+    # A run resumes only with the cameras it was tracked with.
+    monkeypatch.setattr(export, "write_overlays", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
+    with pytest.raises(KeyboardInterrupt):
+        Tracker(five, options=FAST).run(out, resume=False, show_progress=False, frames=2, overlays=True)
+    four = Sequence(seq, leave_out=["cam2", "cam3"])
+    with pytest.raises(ResultsError, match="tracked with the cameras cam0, cam1, cam3, cam4, cam5, not cam0, cam1, "
+                                           r"cam4, cam5: give the same cameras to resume it, or --restart"):
+        Tracker(four, options=FAST).run(out, show_progress=False, frames=2)
+    assert not Tracker(five, options=FAST).run(out, show_progress=False, frames=2).failed.any()
+    with pytest.raises(SystemExit):
+        main(["track", str(seq), "--out", str(out), "--cameras", "cam0,,cam1"])
+    assert "camera names separated by commas, got 'cam0,,cam1'" in capsys.readouterr().err

@@ -1228,5 +1228,10 @@ def test_calib_check_names_the_camera_and_draws_every_view(sequence, tmp_path, c
     (six / "cameras.json").write_text(json.dumps({"units": "m", "cameras": [c.to_dict() for c in cams]}))
     assert main(["calib", "check", str(six)]) == 0
     assert "cameras 'cam2' and 'cam5' disagree with the others alike" in capsys.readouterr().out
+    # Checked again without each: the others agree without the camera turned, not without its mirror.
+    assert main(["calib", "check", str(six), "--leave-out", "cam5", "--picture", str(tmp_path / "5.png")]) == 0
+    assert "the views agree" not in capsys.readouterr().out
+    assert main(["calib", "check", str(six), "--leave-out", "cam2", "--picture", str(tmp_path / "2.png")]) == 0
+    assert "the views agree" in capsys.readouterr().out
     sheet = cv2.imread(str(six / "cameras_check.png"))
     assert sheet.shape == (2 * 240, 4 * 320, 3)

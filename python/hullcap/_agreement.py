@@ -130,11 +130,12 @@ def describe_agreement(agreements: list[ViewAgreement], frame: int) -> str:
         lines.append(f"the views agree: the hull of every view covers {mean:.0%} of their silhouettes on average")
     elif len(suspected) == 1:
         lines.append(f"camera {suspected[0]!r} disagrees with the others: check its calibration, or its background "
-                     f"or silhouette (in the picture)")
+                     f"or silhouette (in the picture), or track without it (--leave-out {suspected[0]})")
     else:
         lines.append(f"cameras {' and '.join(map(repr, suspected))} disagree with the others alike (cameras facing "
                      f"each other see mirror outlines): check their calibrations, or their backgrounds or "
-                     f"silhouettes (in the picture)")
+                     f"silhouettes (in the picture); checked again without the wrong one (--leave-out "
+                     f"{suspected[0]}, then --leave-out {suspected[1]}), the others agree")
     return "\n".join(lines)
 
 

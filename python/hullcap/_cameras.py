@@ -200,6 +200,28 @@ class Cameras(Sequence[Camera]):
         """Every camera :meth:`Camera.scaled`; `factor` 1 gives these cameras."""
         return self if factor == 1 else Cameras([c.scaled(factor) for c in self._cameras])
 
+    def subset(self, keep=None, leave_out=()) -> Cameras:
+        """The cameras named in `keep` (every one when ``None``) less those named in
+        `leave_out`, in this set's order. A name that is not a camera of the set, or one
+        given twice, is a :class:`CalibrationError` naming it and the set's cameras; so is
+        a subset without a camera."""
+        names = self.names
+        asked = [("keep", n) for n in ([] if keep is None else keep)] + [("leave_out", n) for n in leave_out]
+        for _, name in asked:
+            if not isinstance(name, str):
+                raise TypeError(f"camera names are strings, got {name!r}")
+        unknown = [name for _, name in asked if name not in names]
+        if unknown:
+            raise CalibrationError(f"no camera named {', '.join(map(repr, unknown))}; the cameras are "
+                                   f"{', '.join(names)}")
+        repeated = sorted({name for _, name in asked if sum(n == name for _, n in asked) > 1})
+        if repeated:
+            raise CalibrationError(f"camera {', '.join(map(repr, repeated))} named twice")
+        chosen = [c for c in self._cameras if (keep is None or c.name in keep) and c.name not in leave_out]
+        if not chosen:
+            raise CalibrationError(f"no camera left of {', '.join(names)}")
+        return self if len(chosen) == len(self._cameras) else Cameras(chosen)
+
     # -- our format -----------------------------------------------------------------------
 
     @classmethod

@@ -20,7 +20,8 @@ def _track(args) -> int:
     options = TakeOptions(voxel=args.voxel, background=args.background, ignore_silhouettes=args.ignore_silhouettes,
                           volume=args.volume, frames=args.frames, refine_joints=args.refine_joints,
                           hand_reach=args.hand_reach, wrists=args.wrists, overlays=not args.no_overlay,
-                          interpolate=args.interpolate, smooth=args.smooth, image_scale=args.image_scale)
+                          interpolate=args.interpolate, smooth=args.smooth, image_scale=args.image_scale,
+                          cameras=args.cameras, leave_out=args.leave_out)
     track_take(args.sequence, args.out, options, model=args.model, resume=not args.restart, say=print,
                warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
     return 0
@@ -170,7 +171,7 @@ def _calib_check(args) -> int:
     from hullcap._tracking import Tracker, TrackerOptions
     from hullcap.errors import OptionsError, ViewError
 
-    seq = Sequence(args.sequence)
+    seq = Sequence(args.sequence, cameras=args.cameras, leave_out=args.leave_out)
     if not 0 <= args.frame < len(seq):
         raise OptionsError(f"--frame {args.frame}: {args.sequence} has frames 0 to {len(seq) - 1}")
     tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=not args.ignore_silhouettes))
@@ -208,6 +209,22 @@ def _shift(text: str):
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"a number of seconds or 'auto', got {text!r}") from None
+
+
+def _names(text: str) -> tuple[str, ...]:
+    """``--cameras cam0,cam2`` → ('cam0', 'cam2')."""
+    names = tuple(n.strip() for n in text.split(","))
+    if not all(names):
+        raise argparse.ArgumentTypeError(f"camera names separated by commas, got {text!r}")
+    return names
+
+
+def _camera_options(p) -> None:
+    p.add_argument("--cameras", type=_names, metavar="NAMES",
+                   help="use only these cameras of cameras.json, by name, separated by commas (default: all)")
+    p.add_argument("--leave-out", type=_names, default=(), metavar="NAMES",
+                   help="do without these cameras, by name, separated by commas: one `hullcap calib check` names, "
+                        "or one whose files are missing")
 
 
 def _output_options(p) -> None:
@@ -259,6 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--no-wrists", dest="wrists", action="store_false",
                    help="track with the paper's 29 DOF, each hand rigid with its forearm (default: the hands turn at "
                         "the wrists, two DOF each, added once the subject's model is built)")
+    _camera_options(t)
     _output_options(t)
     t.set_defaults(run=_track)
 
@@ -338,6 +356,7 @@ def build_parser() -> argparse.ArgumentParser:
     ck.add_argument("--voxel", type=float, default=0.01, help="visual hull voxel size in metres (default 0.01)")
     ck.add_argument("--ignore-silhouettes", action="store_true",
                     help="subtract the background even if silhouettes/ exist")
+    _camera_options(ck)
     ck.set_defaults(run=_calib_check)
 
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(

@@ -20,7 +20,7 @@ import numpy as np
 
 from hullcap._cameras import Cameras
 from hullcap._files import read_document
-from hullcap.errors import OptionsError, SequenceError, ViewError
+from hullcap.errors import CalibrationError, OptionsError, SequenceError, ViewError
 
 __all__ = ["Sequence", "VIDEO_SUFFIXES", "BACKGROUND_FRAMES"]
 
@@ -41,6 +41,10 @@ MAX_FRAMES = 1_000_000
 """The most frames a sequence may have: as many as six-digit file names number (over nine
 hours at 30 frames/s). A ``meta.json`` claiming more is refused as a mistake."""
 
+MIN_CAMERAS = 2
+"""The fewest cameras a subset of a sequence's may keep (``cameras=``, ``leave_out=``): one
+view carves a cone, not a body."""
+
 BACKGROUND_FRAMES = 30
 """The most frames of a background clip :meth:`Sequence.backgrounds` reads: enough for a
 standard deviation per pixel within about 13 % of its own (1/√(2n)), and a second of
@@ -57,9 +61,14 @@ class Sequence:
     :attr:`cameras` is the calibration of the resized images (:meth:`Camera.scaled`): for
     cameras of more pixels than the 1 cm voxels of the hull need (3 m from a 1920 × 1080
     camera of 60–90° field, a pixel spans 2–3 mm), at a fraction of the cost of every stage.
-    Files are checked against the calibration of their own size (``cameras.json``)."""
+    Files are checked against the calibration of their own size (``cameras.json``).
 
-    def __init__(self, path, image_scale: float = 1.0):
+    `cameras` (names) keeps only those cameras of ``cameras.json`` and `leave_out` (names)
+    drops those (:meth:`Cameras.subset`): a camera ``hullcap calib check`` names, one whose
+    files are missing, or a smaller rig out of a larger one. The others' files are not read;
+    at least :data:`MIN_CAMERAS` must stay."""
+
+    def __init__(self, path, image_scale: float = 1.0, cameras=None, leave_out=()):
         self.path = Path(path)
         if not self.path.is_dir():
             raise SequenceError(f"{self.path}: no such sequence folder")
@@ -68,7 +77,15 @@ class Sequence:
         if not (isinstance(image_scale, int | float) and 0 < image_scale <= 1):
             raise OptionsError(f"image_scale must be in (0, 1], got {image_scale!r}")
         self.image_scale = float(image_scale)
-        self._native = Cameras.load(self.path / "cameras.json")
+        every = Cameras.load(self.path / "cameras.json")
+        try:
+            self._native = every.subset(cameras, leave_out)
+        except CalibrationError as e:
+            raise SequenceError(f"{self.path}: {e}") from None
+        self.cameras_in_file = len(every)
+        if len(self._native) < min(MIN_CAMERAS, len(every)):
+            raise SequenceError(f"{self.path}: only camera {self._native.names[0]!r} is left of {len(every)}; a "
+                                f"visual hull needs at least {MIN_CAMERAS} views")
         self.cameras = self._native.scaled(self.image_scale)
         # JPEG decodes at 1/2, 1/4 or 1/8 of its size for a fraction of the work: the
         # smallest of those still at least as large as the images asked for.
@@ -155,7 +172,8 @@ class Sequence:
 
     def __repr__(self) -> str:
         scale = f", images at {self.image_scale:g} of their size" if self.image_scale != 1 else ""
-        return (f"Sequence({str(self.path)!r}, {len(self.cameras)} cameras, {self.n_frames} frames at "
+        of = f" of {self.cameras_in_file}" if self.cameras_in_file != len(self.cameras) else ""
+        return (f"Sequence({str(self.path)!r}, {len(self.cameras)}{of} cameras, {self.n_frames} frames at "
                 f"{self.fps:g} fps{scale})")
 
     @property

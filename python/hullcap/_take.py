@@ -45,6 +45,8 @@ class TakeOptions:
         smooth: also write trajectories low-passed at this cut-off (Hz).
         image_scale: read every image resized by this factor in (0, 1]
             (:class:`~hullcap._sequence.Sequence`'s `image_scale`).
+        cameras: track with only these cameras, by name (``None``: all).
+        leave_out: track without these cameras, by name.
     """
 
     voxel: float = 0.01
@@ -59,6 +61,8 @@ class TakeOptions:
     interpolate: bool = False
     smooth: float | None = None
     image_scale: float = 1.0
+    cameras: tuple[str, ...] | None = None
+    leave_out: tuple[str, ...] = ()
 
     @classmethod
     def from_table(cls, table: dict, where: str, base: TakeOptions | None = None) -> TakeOptions:
@@ -91,6 +95,10 @@ def _checked(key: str, value, where: str):
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             raise bad("a whole number of frames, at least 1")
         return value
+    if key in ("cameras", "leave_out"):
+        if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+            raise bad('a list of camera names, ["cam0", "cam2"]')
+        return tuple(value)
     if key == "volume":
         if (not isinstance(value, list) or len(value) != 6
                 or not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
@@ -143,7 +151,7 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     say = say or (lambda line: None)
     warn = warn or say
     t0 = time.perf_counter()
-    seq = Sequence(sequence, image_scale=options.image_scale)
+    seq = Sequence(sequence, image_scale=options.image_scale, cameras=options.cameras, leave_out=options.leave_out)
     body = BodyModel.load(model) if model is not None else None
     tracker_options = TrackerOptions(voxel_size=options.voxel, background=options.background,
                                      use_silhouettes=not options.ignore_silhouettes,

@@ -610,7 +610,8 @@ class Tracker:
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, state: TrackingState) -> None:
         buf = io.BytesIO()
-        np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()), **result.arrays(),
+        np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()),
+                 cameras=np.array(self.sequence.cameras.names), **result.arrays(),
                  **self._learnt(), **state.carried())
         self.problems.save(out / PROBLEMS)
         atomic_write(out / CHECKPOINT, buf.getvalue())
@@ -651,11 +652,18 @@ class Tracker:
             with np.load(path) as z:
                 if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
                     return None, 0, None
-                arrays = {k: z[k] for k in z.files}
+                cameras = self.sequence.cameras.names
+                if "cameras" in z.files and z["cameras"].tolist() != cameras:
+                    raise ResultsError(f"{path}: this run was tracked with the cameras "
+                                       f"{', '.join(z['cameras'].tolist())}, not {', '.join(cameras)}: give the "
+                                       f"same cameras to resume it, or --restart (resume=False) to start over")
+                arrays = {k: z[k] for k in z.files if k != "cameras"}
             self._relearn(arrays)
             result, start = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays), int(arrays["next_frame"])
             state = self._tracking_state(result.model)
             state.resume(arrays, result, start)
+        except ResultsError:
+            raise
         except (*NPZ_ERRORS, TypeError) as e:
             raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
                                f"(resume=False) to start over") from None
