@@ -16,6 +16,8 @@ also gets ``frames.csv``: per frame the status, the fit's quality both ways and 
 mean joint error.
 ``--every K`` tracks every K-th frame only, the same motion filmed at 1/K of the frame
 rate: K times as far between frames for the prediction and the guided masks.
+``--cameras K`` tracks with K of each sequence's cameras, spread evenly round its rig: the
+same take filmed by a smaller rig (a sequence of K cameras or fewer keeps them all).
 ``--models-from RUNS`` gives each run the subject's model of the same run in the folder
 ``RUNS`` (an earlier ``--out``) instead of building it, as ``hullcap track --model`` and
 every take of a batch after its calibration take do.
@@ -24,7 +26,7 @@ of the cores: the same joints to the byte (a fit does not depend on its threads)
 whole table sooner, but each run's frames/s then measure a machine it shared.
 
     .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface] [--every K]
-        [--models-from RUNS] [--jobs N]
+        [--cameras K] [--models-from RUNS] [--jobs N]
 """
 
 from __future__ import annotations
@@ -62,10 +64,13 @@ class SurfaceTracker(Tracker):
 
 
 def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions,
-        every: int = 1, models_from: Path | None = None, show_progress: bool = True) -> dict:
+        every: int = 1, models_from: Path | None = None, cameras: int | None = None,
+        show_progress: bool = True) -> dict:
     seq_path = devset.subsampled(devset.render(devset_dir, name), every)
-    seq = Sequence(seq_path)
-    run_dir = out / f"{seq_path.name}-{mode}"  # d01_bend-colour, d01_bend-every3-colour
+    kept = devset.spread_cameras(Sequence(seq_path).cameras, cameras)
+    seq = Sequence(seq_path, cameras=kept)
+    # d01_bend-colour, d01_bend-every3-colour, d01_bend-cams4-colour
+    run_dir = out / f"{seq_path.name}{'' if kept is None else f'-cams{len(kept)}'}-{mode}"
     truth = devset.Truth.load(devset_dir, seq_path)
     options = replace(options, use_silhouettes=mode != "colour")
     model = None if models_from is None else BodyModel.load(models_from / run_dir.name / "model")
@@ -151,6 +156,8 @@ def main():
                     help="build the subject model from the calibration pose only")
     ap.add_argument("--models-from", metavar="RUNS",
                     help="give each run the subject's model of the same run in RUNS (an earlier --out)")
+    ap.add_argument("--cameras", type=int, metavar="K",
+                    help="track with K of each sequence's cameras, spread evenly round its rig (default: all)")
     ap.add_argument("--jobs", type=int, default=1, metavar="N",
                     help="track N runs at a time (frames/s are then those of a shared machine)")
     args = ap.parse_args()
@@ -166,7 +173,10 @@ def main():
     names = args.only or devset.names(devset_dir)
     for name in names:  # rendered here, once, before any run reads it
         devset.subsampled(devset.render(devset_dir, name), args.every)
-    rows = run_all([(devset_dir, name, mode, Path(args.out), args.frames, options, args.every, models_from)
+    if args.cameras is not None and args.cameras < 2:
+        ap.error(f"--cameras must be 2 or more, got {args.cameras}")
+    rows = run_all([(devset_dir, name, mode, Path(args.out), args.frames, options, args.every, models_from,
+                     args.cameras)
                     for name in names for mode in args.silhouettes], args.jobs)
     print("\n" + table(rows))
     if args.jobs > 1:

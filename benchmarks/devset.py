@@ -96,6 +96,22 @@ def subsampled(sequence: Path, every: int) -> Path:
     return out
 
 
+def spread_cameras(cameras, k: int | None) -> list[str] | None:
+    """The names of `k` of `cameras` spread evenly round the rig (by the azimuth of each
+    centre about theirs, every n/k-th from the file's first): a rig of fewer cameras filming the
+    same take. ``None`` (every camera) when `k` is ``None`` or as many as there are."""
+    if k is None or k >= len(cameras):
+        return None
+    if k < 2:
+        raise ValueError(f"a visual hull needs at least 2 cameras, got {k}")
+    centres = np.array([c.centre for c in cameras])
+    offset = centres[:, :2] - centres[:, :2].mean(0)
+    ring = np.argsort(np.arctan2(offset[:, 1], offset[:, 0]), kind="stable").tolist()
+    ring = ring[ring.index(0):] + ring[: ring.index(0)]  # from the first camera of the file
+    picked = sorted(ring[int(i * len(cameras) / k + 0.5)] for i in range(k))
+    return [cameras[i].name for i in picked]
+
+
 @dataclass
 class Truth:
     """The ground-truth joints of a sequence under our joint names (F × J × 3)."""

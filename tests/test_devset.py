@@ -76,3 +76,17 @@ def test_a_subsampled_sequence_keeps_every_kth_frame_and_its_truth(tmp_path):
         assert list(z["names"]) == ["a", "b"]
     with pytest.raises(ValueError, match="every"):
         devset.subsampled(seq, 0)
+
+
+def test_a_smaller_rig_takes_cameras_spread_evenly_round_the_ring():
+    from hullcap._cameras import Cameras, ring
+
+    # A ring of eight whose file lists the cameras out of order round it.
+    cams = ring(8)
+    shuffled = Cameras([cams[i] for i in (3, 0, 6, 1, 7, 4, 2, 5)])
+    assert devset.spread_cameras(shuffled, 4) == ["cam3", "cam1", "cam7", "cam5"]  # every other from cam3
+    assert devset.spread_cameras(cams, 4) == ["cam0", "cam2", "cam4", "cam6"]
+    assert devset.spread_cameras(cams[:6], 4) == ["cam0", "cam2", "cam3", "cam5"]  # gaps 2, 1, 2, 1
+    assert devset.spread_cameras(cams, 8) is None and devset.spread_cameras(cams, None) is None
+    with pytest.raises(ValueError, match="at least 2 cameras"):
+        devset.spread_cameras(cams, 1)
