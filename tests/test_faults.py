@@ -224,6 +224,8 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
             (["cam3"], (), r"only camera 'cam3' is left of 6; a visual hull needs at least 2")):
         with pytest.raises(SequenceError, match=message):
             Sequence(seq, cameras=keep, leave_out=leave_out)
+    with pytest.raises(TypeError, match=r"camera names come as a list, e.g. \['cam2'\]"):
+        Sequence(seq, leave_out="cam2")
     out = tmp_path / "out"
     assert main(["track", str(seq), "--out", str(out), "--leave-out", "cam2", "--frames", "2",
                  "--no-refine-joints"]) == 0

@@ -206,15 +206,17 @@ class Cameras(Sequence[Camera]):
         given twice, is a :class:`CalibrationError` naming it and the set's cameras; so is
         a subset without a camera."""
         names = self.names
-        asked = [("keep", n) for n in ([] if keep is None else keep)] + [("leave_out", n) for n in leave_out]
-        for _, name in asked:
+        if isinstance(keep, str) or isinstance(leave_out, str):
+            raise TypeError(f"camera names come as a list, e.g. [{(keep or leave_out)!r}]")
+        asked = [*([] if keep is None else keep), *leave_out]
+        for name in asked:
             if not isinstance(name, str):
                 raise TypeError(f"camera names are strings, got {name!r}")
-        unknown = [name for _, name in asked if name not in names]
+        unknown = [name for name in asked if name not in names]
         if unknown:
             raise CalibrationError(f"no camera named {', '.join(map(repr, unknown))}; the cameras are "
                                    f"{', '.join(names)}")
-        repeated = sorted({name for _, name in asked if sum(n == name for _, n in asked) > 1})
+        repeated = sorted({name for name in asked if asked.count(name) > 1})
         if repeated:
             raise CalibrationError(f"camera {', '.join(map(repr, repeated))} named twice")
         chosen = [c for c in self._cameras if (keep is None or c.name in keep) and c.name not in leave_out]
