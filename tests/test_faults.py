@@ -75,6 +75,7 @@ def test_one_broken_view_leaves_only_that_view_out(clean, tmp_path, capsys):
     # One warning per camera, not one per frame: cam0 has two broken frames but warns once.
     warnings = [line for line in captured.err.splitlines() if line.startswith("hullcap: warning:")]
     assert sum("'cam0'" in w for w in warnings) == 1, warnings
+    assert not any("background subtraction" in w for w in warnings)  # six cameras
     problems = json.loads((out / "problems.json").read_text())["problems"]
     for cam, frame, what in faults:
         assert any(p["camera"] == cam and p["frame"] == frame and what in p["what"] for p in problems), (cam, frame)
@@ -229,7 +230,11 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
     out = tmp_path / "out"
     assert main(["track", str(seq), "--out", str(out), "--leave-out", "cam2", "--frames", "2",
                  "--no-refine-joints"]) == 0
-    assert "5 of 6 cameras" in capsys.readouterr().out
+    captured = capsys.readouterr()
+    assert "5 of 6 cameras" in captured.out
+    # Fewer than six views from colour frames: the measured risk, and what to do about it.
+    assert "hullcap: warning: 5 cameras and background subtraction" in captured.err
+    assert "silhouettes/<cam>/ track far better with few views" in captured.err
     assert sorted(p.stem for p in (out / "overlay").glob("*.mp4")) == five.cameras.names
     # A run resumes only with the cameras it was tracked with.
     monkeypatch.setattr(export, "write_overlays", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
