@@ -168,13 +168,13 @@ def main():
         ap.error(f"--every must be 1 or more, got {args.every}")
     if args.jobs < 1:
         ap.error(f"--jobs must be 1 or more, got {args.jobs}")
+    if args.cameras is not None and args.cameras < 2:
+        ap.error(f"--cameras must be 2 or more, got {args.cameras}")
     options = TrackerOptions(refine_joints=args.refine)
     models_from = None if args.models_from is None else Path(args.models_from)
     names = args.only or devset.names(devset_dir)
     for name in names:  # rendered here, once, before any run reads it
         devset.subsampled(devset.render(devset_dir, name), args.every)
-    if args.cameras is not None and args.cameras < 2:
-        ap.error(f"--cameras must be 2 or more, got {args.cameras}")
     rows = run_all([(devset_dir, name, mode, Path(args.out), args.frames, options, args.every, models_from,
                      args.cameras)
                     for name in names for mode in args.silhouettes], args.jobs)
