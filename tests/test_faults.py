@@ -234,7 +234,7 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
     assert "5 of 6 cameras" in captured.out
     # Fewer than six views from colour frames: the measured risk, and what to do about it.
     assert "hullcap: warning: 5 cameras and background subtraction" in captured.err
-    assert "silhouettes/<cam>/ track far better with few views" in captured.err
+    assert "silhouettes/<cam>/ track better with few views" in captured.err
     assert sorted(p.stem for p in (out / "overlay").glob("*.mp4")) == five.cameras.names
     # A run resumes only with the cameras it was tracked with.
     monkeypatch.setattr(export, "write_overlays", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))

@@ -1212,6 +1212,17 @@ def test_the_camera_that_disagrees_is_the_one_calibrated_wrong(sequence):
         view_agreement([masks[0], masks[1], np.zeros_like(masks[2]), np.zeros_like(masks[3])], cams)
 
 
+def test_one_camera_that_disagrees_is_named_with_how_to_track_without_it():
+    """The verdict for a single suspect, from figures as an 8-camera ring with one camera
+    turned by 2° gives them (docs/accuracy_notebook.md, "Views that disagree")."""
+    from hullcap._agreement import ViewAgreement, describe_agreement
+
+    gains = [0.002, 0.003, 0.033, 0.002, 0.001, 0.003, 0.011, 0.002]
+    agreements = [ViewAgreement(f"cam{i}", 4000, 0.97 - (0.05 if i == 2 else 0.0), g) for i, g in enumerate(gains)]
+    said = describe_agreement(agreements, 0)
+    assert "camera 'cam2' disagrees with the others" in said and "track without it (--leave-out cam2)" in said
+
+
 def test_calib_check_names_the_camera_and_draws_every_view(sequence, tmp_path, capsys):
     """From background subtraction: the rig as rendered agrees; one camera of a 6-camera
     ring turned by 2° is named with the one facing it (mirror outlines), and the picture
@@ -1227,7 +1238,9 @@ def test_calib_check_names_the_camera_and_draws_every_view(sequence, tmp_path, c
     cams = _turned(Cameras.load(six / "cameras.json"), 2, 2.0)
     (six / "cameras.json").write_text(json.dumps({"units": "m", "cameras": [c.to_dict() for c in cams]}))
     assert main(["calib", "check", str(six)]) == 0
-    assert "cameras 'cam2' and 'cam5' disagree with the others alike" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert "cameras 'cam2' and 'cam5' disagree with the others alike" in said
+    assert "(--leave-out cam2, then --leave-out cam5), the others agree" in said
     # Checked again without each: the others agree without the camera turned, not without its mirror.
     assert main(["calib", "check", str(six), "--leave-out", "cam5", "--picture", str(tmp_path / "5.png")]) == 0
     assert "the views agree" not in capsys.readouterr().out

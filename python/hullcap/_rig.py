@@ -18,7 +18,7 @@ import numpy as np
 from hullcap._cameras import Cameras
 from hullcap._files import atomic_write
 from hullcap._hull import axes_meeting_point, capture_volume, format_bounds
-from hullcap._sequence import VIDEO_SUFFIXES
+from hullcap._sequence import VIDEO_SUFFIXES, first_frame
 from hullcap.errors import CalibrationError, SequenceError
 
 __all__ = ["describe", "draw_top_view", "import_calibration", "image_sizes", "surround", "FORMATS", "MIN_SURROUND"]
@@ -57,10 +57,8 @@ def image_sizes(folder) -> dict[str, tuple[int, int]]:
             sizes[sub.name] = (image.shape[1], image.shape[0])
     videos = sorted((folder / "videos").iterdir()) if (folder / "videos").is_dir() else []
     for video in (v for v in videos if v.suffix.lower() in VIDEO_SUFFIXES):
-        cap = cv2.VideoCapture(str(video))
-        ok, image = cap.read()
-        cap.release()
-        if not ok:
+        image = first_frame(video)
+        if image is None:
             raise SequenceError(f"{video}: cannot read its first frame")
         sizes.setdefault(video.stem, (image.shape[1], image.shape[0]))
     if not sizes:

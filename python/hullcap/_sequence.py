@@ -82,8 +82,8 @@ class Sequence:
             self._native = every.subset(cameras, leave_out)
         except CalibrationError as e:
             raise SequenceError(f"{self.path}: {e}") from None
-        self.cameras_in_file = len(every)
-        if len(self._native) < min(MIN_CAMERAS, len(every)):
+        self._cameras_in_file = len(every)
+        if len(self._native) < MIN_CAMERAS <= len(every):
             raise SequenceError(f"{self.path}: only camera {self._native.names[0]!r} is left of {len(every)}; a "
                                 f"visual hull needs at least {MIN_CAMERAS} views")
         self.cameras = self._native.scaled(self.image_scale)
@@ -159,7 +159,7 @@ class Sequence:
         if first is not None:
             img = cv2.imread(str(first), cv2.IMREAD_GRAYSCALE)
         elif video is not None:
-            first, img = video, _first_frame(video)
+            first, img = video, first_frame(video)
         else:
             return
         if img is not None and img.shape[:2] != (cam.height, cam.width):
@@ -172,7 +172,7 @@ class Sequence:
 
     def __repr__(self) -> str:
         scale = f", images at {self.image_scale:g} of their size" if self.image_scale != 1 else ""
-        of = f" of {self.cameras_in_file}" if self.cameras_in_file != len(self.cameras) else ""
+        of = f" of {self._cameras_in_file}" if self._cameras_in_file != len(self.cameras) else ""
         return (f"Sequence({str(self.path)!r}, {len(self.cameras)}{of} cameras, {self.n_frames} frames at "
                 f"{self.fps:g} fps{scale})")
 
@@ -411,7 +411,7 @@ def _at_most_one(found: list[Path], folder: Path, name: str, what: str) -> Path 
     return found[0] if found else None
 
 
-def _first_frame(path: Path) -> np.ndarray | None:
+def first_frame(path: Path) -> np.ndarray | None:
     """The video's first frame, None when it cannot be read."""
     cap = cv2.VideoCapture(str(path))
     try:

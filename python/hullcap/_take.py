@@ -21,8 +21,9 @@ __all__ = ["TakeOptions", "TakeSummary", "track_take"]
 MADE = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png, problems.json"
 FEW_CAMERAS = 6
 """Below this many cameras ``hullcap track`` warns when it subtracts the background: on the
-development set's adults filmed by 4 of their cameras, limbs were lost from colour frames
-(MPJPE 34–48 mm) but not from exact masks (22–36 mm); docs/accuracy.md, "Fewer cameras"."""
+development set's adults filmed by 4 of their cameras, colour frames lost limbs for
+seconds (MPJPE 34–48 mm) where exact masks gave 22–36 mm; docs/accuracy.md, "Fewer
+cameras"."""
 SAID_LIMITS = 4
 """How many of the joint angles held at a limit the end of a run names, the most held first."""
 
@@ -168,10 +169,11 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     if spread < MIN_SURROUND:
         warn(f"the cameras surround the person over only {spread:.0f}°: the visual hull reaches far along the "
              f"viewing direction and tracking may fail (hullcap calib show)")
-    if len(seq.cameras) < FEW_CAMERAS and (options.ignore_silhouettes or not seq.has_silhouettes):
+    if len(seq.cameras) < FEW_CAMERAS and not tracker.given_silhouettes:
         warn(f"{len(seq.cameras)} cameras and background subtraction: on the development set's adults filmed by "
-             f"4 of their cameras, limbs the masks missed were lost for seconds (docs/accuracy.md, 'Fewer "
-             f"cameras'); a segmenter's masks in silhouettes/<cam>/ track far better with few views")
+             f"4 of their cameras, limbs the masks missed were lost for seconds, 34-48 mm mean joint error against "
+             f"22-36 mm from exact masks (docs/accuracy.md, 'Fewer cameras'); a segmenter's masks in "
+             f"silhouettes/<cam>/ track better with few views")
     result = tracker.run(out, resume=resume, show_progress=show_progress, frames=options.frames,
                          interpolate=options.interpolate, smooth_hz=options.smooth, overlays=options.overlays)
     summary = TakeSummary(frames=len(result.failed), lost=int(result.failed.sum()),

@@ -107,7 +107,9 @@ class Tracker:
     # -- one frame's input -------------------------------------------------------------
 
     @property
-    def _given_silhouettes(self) -> bool:
+    def given_silhouettes(self) -> bool:
+        """Whether it tracks from the sequence's own silhouettes (else it subtracts the
+        background)."""
         return self.options.use_silhouettes and self.sequence.has_silhouettes
 
     def masks(self, frame: int, priors=None) -> list[np.ndarray]:
@@ -149,14 +151,14 @@ class Tracker:
         background evidence; or the ViewError that leaves it out. Runs on the read-ahead
         thread: it may not touch the problem log."""
         seq = self.sequence
-        segmenters = None if self._given_silhouettes else self._segmenters()
+        segmenters = None if self.given_silhouettes else self._segmenters()
         inputs: list[_Input | ViewError] = []
         for i, cam in enumerate(seq.cameras):
             if cam.name in self._no_background:
                 inputs.append(self._no_background[cam.name])
                 continue
             try:
-                if self._given_silhouettes:
+                if self.given_silhouettes:
                     inputs.append(_Input(mask=seq.mask(frame, cam.name)))
                     continue
                 image = seq.image(frame, cam.name)
@@ -191,12 +193,12 @@ class Tracker:
     @property
     def _hull_tolerance(self) -> int:
         tolerance = self.options.hull_tolerance
-        return tolerance if tolerance is not None else (0 if self._given_silhouettes else 1)
+        return tolerance if tolerance is not None else (0 if self.given_silhouettes else 1)
 
     @property
     def _hand_reach(self) -> float:
         reach = self.options.hand_reach
-        return reach if reach is not None else (0.6 if self._given_silhouettes else 1.0)
+        return reach if reach is not None else (0.6 if self.given_silhouettes else 1.0)
 
     def _segmenters(self):
         """The background models (None for a camera without a usable background image, in
@@ -237,7 +239,7 @@ class Tracker:
 
     def _guides(self) -> bool:
         """Whether silhouettes are guided by the model."""
-        return not self._given_silhouettes and self._segmenters() is not None
+        return not self.given_silhouettes and self._segmenters() is not None
 
     def _window_end(self, first: int, n: int) -> int:
         """The frame after the first `calibration_seconds` from `first` (at most `n`)."""
@@ -374,7 +376,7 @@ class Tracker:
         if self.options.read_ahead == 0 or not len(frames):
             yield
             return
-        if not self._given_silhouettes:
+        if not self.given_silhouettes:
             self._segmenters()  # built here, not on the other thread
         ahead = ReadAhead(self._inputs, frames, self.options.read_ahead)
         try:
@@ -391,12 +393,12 @@ class Tracker:
         and the image size of every camera against its calibration."""
         seq = self.sequence
         n = len(seq) if frames is None else min(frames, len(seq))
-        counts = seq.frame_counts(silhouettes=self._given_silhouettes)
+        counts = seq.frame_counts(silhouettes=self.given_silhouettes)
         if any(k != len(seq) for k in counts.values()):
             on_disk = ", ".join(f"{name} {k}" for name, k in counts.items())
             self.problems.add(None, f"meta.json says {len(seq)} frames, on disk: {on_disk}; "
                                     f"a camera's missing frames leave its view out")
-        if not self._given_silhouettes:
+        if not self.given_silhouettes:
             seq.check_image_sizes()
             self._segmenters()
             for name, e in self._no_background.items():
