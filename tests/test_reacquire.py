@@ -332,9 +332,38 @@ def test_the_screen_passes_on_the_best_candidates_and_always_the_pose_to_beat():
     rank, rough = search._rank_options, search._screen_options
     assert (rough.model_points, rough.reverse_points, rough.reverse_vertices) == (
         rank.model_points // 4, rank.reverse_points // 4, rank.reverse_vertices // 4)
-    for bad in ({"screen": -1}, {"screen_coarse": 0}):
+    for bad in ({"screen": -1}, {"screen_coarse": 0}, {"screen_margin": -0.1}, {"screen_margin": float("nan")}):
         with pytest.raises(OptionsError):
             SearchOptions(**bad)
+
+
+def test_the_screen_drops_candidates_far_below_the_pose_to_beat(monkeypatch):
+    """Candidates whose rough score lies more than `screen_margin` under the pose to beat's
+    are not scored again, and when none is left the pose to beat stands at once; without a
+    pose to beat the screen passes on its best by rank alone."""
+    from hullcap._fitting import PoseParameters, make_target
+    from hullcap._mesh import Surface
+    from hullcap._reacquire import SearchOptions
+
+    model = BodyModel.template()
+    root = np.array([0.0, 0.0, model.rest_root_height])
+    posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
+    target = make_target(Surface(posed.vertices, model.faces, posed.normals))
+    rng = np.random.default_rng(6)
+    near = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + rng.normal(0.0, 0.003, 3)) for _ in range(3)]
+    far = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [0.5 + 0.1 * k, 0.0, 0.0]) for k in range(9)]
+    beat = PoseParameters(np.zeros(model.n_dofs), np.eye(3), root)
+    search = PoseSearch(model, TrackerOptions().fit, SearchOptions(screen=8))
+    scored = []
+    qualities = PoseSearch._qualities
+    monkeypatch.setattr(PoseSearch, "_qualities", lambda self, t, poses, o: scored.append(len(poses))
+                        or qualities(self, t, poses, o))
+    assert search._rank(target, far + [beat]) == [beat] and scored == [10]
+    scored.clear()
+    ranked = search._rank(target, far + near + [beat])
+    assert scored == [13, 4] and {id(p) for p in ranked} == {id(p) for p in near + [beat]}
+    scored.clear()
+    assert len(search._rank(target, far + near, to_beat=False)) == 8 and scored == [12, 8]
 
 
 def test_a_hinge_that_jumps_from_the_prediction_is_held_near_it():
