@@ -92,9 +92,10 @@ class SearchOptions:
             scores differ: over the 102 rankings of the development set's colour runs
             (d01, d03, d04; d02 has none) and of a re-acquisition after a jump of a metre,
             5 280 candidates, a candidate's score proper stood at most 0.066 further above
-            the pose to beat's than its rough score did (0.034 at the 99.9th percentile),
-            and no candidate that came out above the pose to beat had a rough score under
-            it. 0.1 leaves a margin over that; ``math.inf`` screens by rank alone.
+            the pose to beat's than its rough score did (on the development set at most
+            0.050, 0.034 at the 99.9th percentile), and no candidate that came out above
+            the pose to beat had a rough score under it. 0.1 leaves a margin over that;
+            ``math.inf`` screens by rank alone.
         recent: recent good poses taken into the library (the newest, and others spaced
             back over about a second).
         girdle_share: the part of an arm's elevation above the horizontal that the shoulder
