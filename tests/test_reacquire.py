@@ -277,23 +277,33 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
     assert not result.failed[JUMP + 3:].any() and np.nanmax(errors(result, truth)[JUMP + 3:]) < 0.05
 
 
-def test_a_search_fits_only_candidates_that_explain_more_than_the_tracked_fit(monkeypatch):
-    """A tracked fit that explains the whole body: no candidate of the search, before
-    fitting, explains as much, none is fitted, and the chains are re-sampled from the
-    tracked fit. A tracked fit a metre from the body: candidates are fitted, and the
-    search finds the body."""
-    from hullcap import _reacquire
-    from hullcap._fitting import PoseParameters, fit, make_target, quality
+def standing_template():
+    """``(model, surface, target, moved)``: the template standing in its rest pose as a
+    hull's surface and its target, and a function giving that pose moved by an offset
+    (metres)."""
+    from hullcap._fitting import PoseParameters, make_target
     from hullcap._mesh import Surface
 
     model = BodyModel.template()
     root = np.array([0.0, 0.0, model.rest_root_height])
     posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
     surface = Surface(posed.vertices, model.faces, posed.normals)
-    target = make_target(surface)
+    return model, surface, make_target(surface), lambda offset: PoseParameters(np.zeros(model.n_dofs), np.eye(3),
+                                                                               root + offset)
+
+
+def test_a_search_fits_only_candidates_that_explain_more_than_the_tracked_fit(monkeypatch):
+    """A tracked fit that explains the whole body: no candidate of the search, before
+    fitting, explains as much, none is fitted, and the chains are re-sampled from the
+    tracked fit. A tracked fit a metre from the body: candidates are fitted, and the
+    search finds the body."""
+    from hullcap import _reacquire
+    from hullcap._fitting import fit, quality
+
+    model, surface, target, moved = standing_template()
     options = TrackerOptions()
-    tracked = fit(model, target, PoseParameters(np.zeros(model.n_dofs), np.eye(3), root), options.fit)
-    far = fit(model, target, PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [1.0, 0.0, 0.0]), options.fit)
+    tracked = fit(model, target, moved(0.0), options.fit)
+    far = fit(model, target, moved([1.0, 0.0, 0.0]), options.fit)
     fits, resampled = [], []
     monkeypatch.setattr(_reacquire, "fit", lambda *args, **kwargs: fits.append(1) or fit(*args, **kwargs))
     search = PoseSearch(model, options.fit)
@@ -309,19 +319,14 @@ def test_the_screen_passes_on_the_best_candidates_and_always_the_pose_to_beat():
     """A rough scoring on a quarter of the points passes the best `screen` candidates and
     the last pose (the one to beat) on to the scoring proper, which orders them as a
     ranking of every candidate would; the body's own pose comes first."""
-    from hullcap._fitting import PoseParameters, make_target
-    from hullcap._mesh import Surface
     from hullcap._reacquire import SearchOptions
     from hullcap.errors import OptionsError
 
-    model = BodyModel.template()
-    root = np.array([0.0, 0.0, model.rest_root_height])
-    posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
-    target = make_target(Surface(posed.vertices, model.faces, posed.normals))
+    model, _, target, moved = standing_template()
     rng = np.random.default_rng(5)
-    poses = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + rng.normal(0.0, 0.08, 3)) for _ in range(12)]
-    poses.insert(7, PoseParameters(np.zeros(model.n_dofs), np.eye(3), root))
-    poses.append(PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [1.0, 0.0, 0.0]))  # to beat: far off
+    poses = [moved(rng.normal(0.0, 0.08, 3)) for _ in range(12)]
+    poses.insert(7, moved(0.0))
+    poses.append(moved([1.0, 0.0, 0.0]))  # to beat: far off
     fit_options = TrackerOptions().fit
     every = PoseSearch(model, fit_options, SearchOptions(screen=0))._rank(target, poses)
     search = PoseSearch(model, fit_options, SearchOptions(screen=3))
@@ -341,18 +346,13 @@ def test_the_screen_drops_candidates_far_below_the_pose_to_beat(monkeypatch):
     """Candidates whose rough score lies more than `screen_margin` under the pose to beat's
     are not scored again, and when none is left the pose to beat stands at once; without a
     pose to beat the screen passes on its best by rank alone."""
-    from hullcap._fitting import PoseParameters, make_target
-    from hullcap._mesh import Surface
     from hullcap._reacquire import SearchOptions
 
-    model = BodyModel.template()
-    root = np.array([0.0, 0.0, model.rest_root_height])
-    posed = model.pose(np.zeros(model.n_dofs), root_translation=root)
-    target = make_target(Surface(posed.vertices, model.faces, posed.normals))
+    model, _, target, moved = standing_template()
     rng = np.random.default_rng(6)
-    near = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + rng.normal(0.0, 0.003, 3)) for _ in range(3)]
-    far = [PoseParameters(np.zeros(model.n_dofs), np.eye(3), root + [0.5 + 0.1 * k, 0.0, 0.0]) for k in range(9)]
-    beat = PoseParameters(np.zeros(model.n_dofs), np.eye(3), root)
+    near = [moved(rng.normal(0.0, 0.003, 3)) for _ in range(3)]
+    far = [moved([0.5 + 0.1 * k, 0.0, 0.0]) for k in range(9)]
+    beat = moved(0.0)
     search = PoseSearch(model, TrackerOptions().fit, SearchOptions(screen=8))
     scored = []
     qualities = PoseSearch._qualities
