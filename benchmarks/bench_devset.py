@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
 from hullcap._body import BodyModel  # noqa: E402
 from hullcap._results import RECOVERED, STATUS_NAMES  # noqa: E402
-from hullcap._sequence import Sequence  # noqa: E402
+from hullcap._sequence import MIN_CAMERAS, Sequence  # noqa: E402
 from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
 
 
@@ -168,8 +168,8 @@ def main():
         ap.error(f"--every must be 1 or more, got {args.every}")
     if args.jobs < 1:
         ap.error(f"--jobs must be 1 or more, got {args.jobs}")
-    if args.cameras is not None and args.cameras < 2:
-        ap.error(f"--cameras must be 2 or more, got {args.cameras}")
+    if args.cameras is not None and args.cameras < MIN_CAMERAS:
+        ap.error(f"--cameras must be {MIN_CAMERAS} or more, got {args.cameras}")
     options = TrackerOptions(refine_joints=args.refine)
     models_from = None if args.models_from is None else Path(args.models_from)
     names = args.only or devset.names(devset_dir)

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._compare import in_body_frame, offset_removed_mm
+from hullcap._sequence import MIN_CAMERAS
 
 REPO = Path(__file__).resolve().parent.parent
 CACHE = REPO / "data" / "devset"
@@ -102,8 +103,8 @@ def spread_cameras(cameras, k: int | None) -> list[str] | None:
     same take. ``None`` (every camera) when `k` is ``None`` or as many as there are."""
     if k is None or k >= len(cameras):
         return None
-    if k < 2:
-        raise ValueError(f"a visual hull needs at least 2 cameras, got {k}")
+    if k < MIN_CAMERAS:
+        raise ValueError(f"a visual hull needs at least {MIN_CAMERAS} cameras, got {k}")
     centres = np.array([c.centre for c in cameras])
     offset = centres[:, :2] - centres[:, :2].mean(0)
     ring = np.argsort(np.arctan2(offset[:, 1], offset[:, 0]), kind="stable").tolist()

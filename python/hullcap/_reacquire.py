@@ -274,7 +274,8 @@ class PoseSearch:
             for k in range(self.options.headings):
                 R = yaw_rotation(2 * np.pi * k / self.options.headings) @ last
                 candidates.append(PoseParameters(theta, R, centre - R @ offset))
-        ranked = self._rank(target, candidates + ([] if tracked is None else [tracked.pose]), tracked is not None)
+        ranked = self._rank(target, candidates + ([] if tracked is None else [tracked.pose]),
+                            to_beat=tracked is not None)
         better = takewhile(lambda pose: tracked is None or pose is not tracked.pose, ranked[: self.options.keep])
         iterations = 0
         best = tracked
