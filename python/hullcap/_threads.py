@@ -19,6 +19,7 @@ The results are those of the same calls made in order, one after another
 
 from __future__ import annotations
 
+import itertools
 import queue
 import threading
 import time
@@ -35,12 +36,30 @@ _pools: dict[tuple[str, int], ThreadPoolExecutor] = {}
 def over_views(work: Callable, items: Iterable) -> list:
     """``[work(item) for item in items]``, the items shared among as many threads as the
     engine runs on (``_engine.threads()``: ``$HULLCAP_THREADS`` when it is a positive
-    number, else every core); the first exception of `work` is raised here."""
+    number, else every core), the calling thread one of them; the exception of `work` at
+    the first item that raised one is raised here, once every item has been worked."""
     items = list(items)
     threads = min(_engine.threads(), len(items))
     if threads <= 1:
         return [work(item) for item in items]
-    return list(_pool("views", threads).map(work, items))
+    results: list = [None] * len(items)
+    errors: dict[int, Exception] = {}
+    claim = itertools.count()  # each thread takes the next item left: next() holds the GIL
+
+    def drain() -> None:
+        while (k := next(claim)) < len(items):
+            try:
+                results[k] = work(items[k])
+            except Exception as e:  # raised by the caller, in the items' order
+                errors[k] = e
+
+    helpers = [_pool("views", threads - 1).submit(drain) for _ in range(threads - 1)]
+    drain()
+    for helper in helpers:
+        helper.result()
+    if errors:
+        raise errors[min(errors)]
+    return results
 
 
 def over_fits(work: Callable, items: Iterable) -> list:
