@@ -37,10 +37,12 @@ def over_views(work: Callable, items: Iterable) -> list:
     """``[work(item) for item in items]``, the items shared among as many threads as the
     engine runs on (``_engine.threads()``: ``$HULLCAP_THREADS`` when it is a positive
     number, else every core), the calling thread one of them; the exception of `work` at
-    the first item that raised one is raised here, once every item has been worked."""
+    the first item that raised one is raised here, once every item has been worked.
+    Called from `work` on a pool thread, it works its items on that thread alone: the
+    pool may have no other thread to give it."""
     items = list(items)
     threads = min(_engine.threads(), len(items))
-    if threads <= 1:
+    if threads <= 1 or _on_pool("views"):
         return [work(item) for item in items]
     results: list = [None] * len(items)
     errors: dict[int, Exception] = {}
@@ -86,6 +88,11 @@ def _pool(kind: str, threads: int) -> ThreadPoolExecutor:
     if pool is None:
         pool = _pools[(kind, threads)] = ThreadPoolExecutor(threads, thread_name_prefix=f"hullcap-{kind}")
     return pool
+
+
+def _on_pool(kind: str) -> bool:
+    """Whether this thread is one of the pools' of `kind` of work (:func:`_pool`)."""
+    return threading.current_thread().name.startswith(f"hullcap-{kind}_")
 
 
 class ReadAhead:
