@@ -430,14 +430,15 @@ def test_views_side_by_side_keep_their_order_and_errors(monkeypatch):
 
     with pytest.raises(ValueError, match="view 4"):  # the first in the items' order
         over_views(broken, range(8))
-    # Views within views: a pool thread works its own items, with no pool thread to wait
-    # for (with two threads, the pool has one, and it is the caller).
+    # Views within views: with two threads the pool has one, and when the views it works
+    # ask for views of their own, it must work them itself rather than wait for itself.
     monkeypatch.setenv("HULLCAP_THREADS", "2")
     nested: list = []
     caller = threading.Thread(target=lambda: nested.append(
         over_views(lambda x: sum(over_views(lambda y: y * y, range(x))), range(8))), daemon=True)
     caller.start()
     caller.join(timeout=30)
+    assert not caller.is_alive(), "views within views wait for themselves"
     assert nested == [[sum(y * y for y in range(x)) for x in range(8)]]
     for value in ("0", "two", ""):
         monkeypatch.setenv("HULLCAP_THREADS", value)

@@ -91,7 +91,7 @@ def _pool(kind: str, threads: int) -> ThreadPoolExecutor:
 
 
 def _on_pool(kind: str) -> bool:
-    """Whether this thread is one of the pools' of `kind` of work (:func:`_pool`)."""
+    """Whether this thread belongs to a pool for `kind` of work (:func:`_pool`)."""
     return threading.current_thread().name.startswith(f"hullcap-{kind}_")
 
 
