@@ -2,6 +2,7 @@
 
 import shutil
 import threading
+import time
 
 import cv2
 import numpy as np
@@ -440,6 +441,19 @@ def test_views_side_by_side_keep_their_order_and_errors(monkeypatch):
     caller.join(timeout=30)
     assert not caller.is_alive(), "views within views wait for themselves"
     assert nested == [[sum(y * y for y in range(x)) for x in range(8)]]
+    # Ctrl-C on the calling thread: the other threads take no further items.
+    worked = []
+    asking = threading.current_thread()
+
+    def interrupted(x):
+        if threading.current_thread() is asking:
+            raise KeyboardInterrupt
+        time.sleep(0.01)
+        worked.append(x)
+
+    with pytest.raises(KeyboardInterrupt):
+        over_views(interrupted, range(50))
+    assert len(worked) <= 2
     for value in ("0", "two", ""):
         monkeypatch.setenv("HULLCAP_THREADS", value)
         assert threads() >= 1

@@ -36,63 +36,65 @@ _pools: dict[tuple[str, int], ThreadPoolExecutor] = {}
 def over_views(work: Callable, items: Iterable) -> list:
     """``[work(item) for item in items]``, the items shared among as many threads as the
     engine runs on (``_engine.threads()``: ``$HULLCAP_THREADS`` when it is a positive
-    number, else every core), the calling thread one of them; the exception of `work` at
-    the first item that raised one is raised here, once every item has been worked.
-    Called from `work` on a pool thread, it works its items on that thread alone: the
-    pool may have no other thread to give it."""
+    number, else every core), as :func:`_shared` shares them."""
     items = list(items)
-    threads = min(_engine.threads(), len(items))
-    if threads <= 1 or _on_pool("views"):
+    return _shared("views", work, items, min(_engine.threads(), len(items)))
+
+
+def over_fits(work: Callable, items: Iterable) -> list:
+    """``[work(item, threads) for item in items]`` for independent work that is mostly
+    the engine's (fits): the items shared among as many threads as the engine runs on (as
+    :func:`_shared` shares them), each call told how many engine threads it may use (the
+    engine's share of each). A fit's result does not depend on its threads (the engine's
+    chunks are the same), so the results are those of the calls made in order on every
+    core."""
+    items = list(items)
+    cores = _engine.threads()
+    threads = min(cores, len(items))
+    each = cores if threads <= 1 else max(1, cores // threads)
+    return _shared("fits", lambda item: work(item, each), items, threads)
+
+
+def _shared(kind: str, work: Callable, items: list, threads: int) -> list:
+    """``[work(item) for item in items]`` on `threads` threads: the calling thread and
+    ``threads - 1`` of the pool for `kind`, each taking the next item left. The exception
+    of `work` at the first item that raised one is raised once every item is worked; an
+    interruption of the calling thread (Ctrl-C) stops the others taking items. Called from
+    `work` on a pool thread of the same kind, it works the items on that thread alone: the
+    pool may have no other thread to give it."""
+    if threads <= 1 or threading.current_thread().name.startswith(f"hullcap-{kind}_"):
         return [work(item) for item in items]
     results: list = [None] * len(items)
     errors: dict[int, Exception] = {}
-    claim = itertools.count()  # each thread takes the next item left: next() holds the GIL
+    claim = itertools.count()  # next() holds the GIL: no item is taken twice
+    stop = threading.Event()
 
     def drain() -> None:
-        while (k := next(claim)) < len(items):
+        while not stop.is_set() and (k := next(claim)) < len(items):
             try:
                 results[k] = work(items[k])
             except Exception as e:  # raised by the caller, in the items' order
                 errors[k] = e
 
-    helpers = [_pool("views", threads - 1).submit(drain) for _ in range(threads - 1)]
-    drain()
-    for helper in helpers:
-        helper.result()
+    helpers = [_pool(kind, threads - 1).submit(drain) for _ in range(threads - 1)]
+    try:
+        drain()
+    finally:
+        stop.set()
+        for helper in helpers:
+            helper.result()
     if errors:
         raise errors[min(errors)]
     return results
 
 
-def over_fits(work: Callable, items: Iterable) -> list:
-    """``[work(item, threads) for item in items]`` for independent work that is mostly
-    the engine's (fits): the items shared among as many threads as the engine runs on,
-    each call told how many engine threads it may use (the engine's share of each). A
-    fit's result does not depend on its threads (the engine's chunks are the same), so
-    the results are those of the calls made in order on every core; the first exception
-    of `work` is raised here. `work` must not itself call :func:`over_fits`: it would wait
-    for the pool it runs on."""
-    items = list(items)
-    cores = _engine.threads()
-    threads = min(cores, len(items))
-    if threads <= 1:
-        return [work(item, cores) for item in items]
-    each = max(1, cores // threads)
-    return list(_pool("fits", threads).map(lambda item: work(item, each), items))
-
-
 def _pool(kind: str, threads: int) -> ThreadPoolExecutor:
-    """The pool of `threads` threads for `kind` of work, kept for the process: one kind's
-    work may wait for the other's, never for its own."""
+    """The pool of `threads` threads for `kind` of work, kept for the process, its threads
+    named ``hullcap-<kind>_<n>``."""
     pool = _pools.get((kind, threads))
     if pool is None:
         pool = _pools[(kind, threads)] = ThreadPoolExecutor(threads, thread_name_prefix=f"hullcap-{kind}")
     return pool
-
-
-def _on_pool(kind: str) -> bool:
-    """Whether this thread belongs to a pool for `kind` of work (:func:`_pool`)."""
-    return threading.current_thread().name.startswith(f"hullcap-{kind}_")
 
 
 class ReadAhead:
