@@ -35,6 +35,22 @@ def test_projection_matches_opencv_and_back_projection_inverts_it(rng):
     assert np.allclose(z, (X - origin) @ cam.R[2])
 
 
+def test_back_projection_inverts_a_wide_lens_over_the_whole_image():
+    """Our own removal of the distortion (Newton's method, not OpenCV's undistortPoints,
+    whose signature differs between OpenCV 4 and 5) on a wide-angle lens with skew: every
+    pixel's ray projects back onto that pixel."""
+    base = ring(8)[1]
+    K = base.K.copy()
+    K[0, 1] = 0.5
+    cam = Camera("wide", 640, 480, K, [-0.28, 0.09, 0.0015, -0.001, -0.012], base.R, base.t)
+    uu, vv = np.meshgrid(np.linspace(0, 639, 33), np.linspace(0, 479, 25))
+    px = np.stack([uu.ravel(), vv.ravel()], 1)
+    origin, d = cam.rays(px)
+    back, z = cam.project(origin + 3.0 * d)
+    assert (z > 0).all()
+    assert np.abs(back - px).max() < 1e-6
+
+
 def _numpy_verdicts(X, radius, views, tolerance, min_views):
     """The carving rule of `classify_cells`, written out in NumPy with the cameras'
     own projection."""
@@ -162,7 +178,7 @@ def test_cameras_json_round_trip_and_validation(tmp_path):
     broken(lambda c: c["K"][0].__setitem__(0, -600.0), r"camera 'cam2': K's focal lengths must be positive")
     broken(lambda c: c.update(R=[[1, 0, 0], [0, 1, 0], [0, 0, -1]]), r"camera 'cam2': R is not a rotation \(det = -1")
     broken(lambda c: c.update(R=[[2, 0, 0], [0, 1, 0], [0, 0, 1]]), r"camera 'cam2': R is not a rotation")
-    broken(lambda c: c.update(width=0), r"camera 'cam2': image size must be positive")
+    broken(lambda c: c.update(width=0), r"camera 'cam2': width must be a positive whole number of pixels, got 0")
     broken(lambda c: c.update(name="cam0"), r"names must be unique; repeated: \['cam0'\]")
     broken(lambda c: c.pop("t"), r"camera 'cam2': missing \['t'\]")
     with pytest.raises(ValueError, match="cannot read"):

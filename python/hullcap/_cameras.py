@@ -9,6 +9,7 @@ top-left pixel. Besides our own ``cameras.json``, the calibrations of EasyMocap
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -30,6 +31,12 @@ give about 1e-5), and the nearest rotation is used; a real non-rotation is far b
 PRINCIPAL_POINT_TOLERANCE = 0.25
 """An imported camera whose principal point lies further than this fraction of the image's
 width or height from its centre is refused: the image size is most likely swapped."""
+
+UNDISTORT_ITERATIONS = 50
+UNDISTORT_TOLERANCE = 1e-12
+"""Newton's iterations, at most, and the residual (normalised image coordinates) at which
+:meth:`Camera.rays` stops removing the distortion: a lens of k1 within ±0.3 converges in a
+handful."""
 
 Y_UP_TO_Z_UP = np.array([[1.0, 0, 0], [0, 0, -1.0], [0, 1.0, 0]])
 """Maps a y-up world (x right, y up, z towards the viewer) to ours (z up)."""
@@ -64,16 +71,22 @@ class Camera:
                 raise CalibrationError(f"{where}: {attr} is not numeric") from None
             if attr == "dist" and value.ndim <= 1 and value.size < 5:  # [k1 k2 p1 p2]: k3 = 0
                 value = np.concatenate([value.ravel(), np.zeros(5 - value.size)])
-            if value.shape != shape or not np.isfinite(value).all():
-                raise CalibrationError(f"{where}: {attr} must be {shape} finite numbers, got shape {value.shape}")
+            if value.shape != shape:
+                raise CalibrationError(f"{where}: {attr} must be {shape} numbers, got shape {value.shape}")
+            if not np.isfinite(value).all():
+                raise CalibrationError(f"{where}: {attr} must be finite numbers, got {value.tolist()}")
             value.setflags(write=False)
             object.__setattr__(self, attr, value)
         if not isinstance(self.name, str) or not self.name or "/" in self.name:
             raise CalibrationError(f"{where}: name must be a non-empty string without '/'")
-        if not (int(self.width) == self.width > 0 and int(self.height) == self.height > 0):
-            raise CalibrationError(f"{where}: image size must be positive integers, got {self.width}×{self.height}")
-        object.__setattr__(self, "width", int(self.width))
-        object.__setattr__(self, "height", int(self.height))
+        for attr in ("width", "height"):
+            value = getattr(self, attr)
+            whole = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool) \
+                and math.isfinite(value) and value == int(value) > 0
+            if not whole:
+                raise CalibrationError(f"{where}: {attr} must be a positive whole number of pixels, got {value!r}"
+                                       + (f" (a {type(value).__name__})" if isinstance(value, str | bool) else ""))
+            object.__setattr__(self, attr, int(value))
         K = self.K
         if K[1, 0] != 0 or K[2, 0] != 0 or K[2, 1] != 0 or K[2, 2] != 1:
             raise CalibrationError(f"{where}: K must be upper-triangular with K[2,2] = 1, got {K.tolist()}")
@@ -105,25 +118,59 @@ class Camera:
         x = self.to_camera(points)
         z = x[:, 2]
         safe = np.where(np.abs(z) > 1e-12, z, 1e-12)
-        a, b = x[:, 0] / safe, x[:, 1] / safe
-        k1, k2, p1, p2, k3 = self.dist
-        if self.dist.any():
-            r2 = a * a + b * b
-            radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
-            a, b = (a * radial + 2 * p1 * a * b + p2 * (r2 + 2 * a * a),
-                    b * radial + p1 * (r2 + 2 * b * b) + 2 * p2 * a * b)
+        a, b = self._distorted(x[:, 0] / safe, x[:, 1] / safe)
         K = self.K
         u = K[0, 0] * a + K[0, 1] * b + K[0, 2]
         v = K[1, 1] * b + K[1, 2]
         return np.stack([u, v], 1), z
 
+    def _distorted(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Normalised image coordinates (x/z, y/z) → the same after the lens distortion
+        (Brown–Conrady: radial k1, k2, k3 and tangential p1, p2, as OpenCV has it)."""
+        if not self.dist.any():
+            return a, b
+        k1, k2, p1, p2, k3 = self.dist
+        r2 = a * a + b * b
+        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        return (a * radial + 2 * p1 * a * b + p2 * (r2 + 2 * a * a),
+                b * radial + p1 * (r2 + 2 * b * b) + 2 * p2 * a * b)
+
+    def _undistorted(self, a_d: np.ndarray, b_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The inverse of :meth:`_distorted`, by Newton's method from the distorted point
+        (the map has no closed-form inverse). Written here rather than taken from OpenCV,
+        whose ``undistortPoints`` changed its signature between 4.x and 5.x."""
+        if not self.dist.any():
+            return a_d, b_d
+        k1, k2, p1, p2, k3 = self.dist
+        a, b = a_d.copy(), b_d.copy()
+        for _ in range(UNDISTORT_ITERATIONS):
+            fa, fb = self._distorted(a, b)
+            ra, rb = fa - a_d, fb - b_d
+            if max(np.abs(ra).max(initial=0), np.abs(rb).max(initial=0)) < UNDISTORT_TOLERANCE:
+                break
+            r2 = a * a + b * b
+            radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+            d_radial = k1 + r2 * (2 * k2 + 3 * r2 * k3)  # d radial / d r2
+            # The Jacobian of the distortion, d(fa, fb) / d(a, b).
+            jaa = radial + 2 * a * a * d_radial + 2 * p1 * b + 6 * p2 * a
+            jab = 2 * a * b * d_radial + 2 * p1 * a + 2 * p2 * b
+            jba = 2 * a * b * d_radial + 2 * p1 * a + 2 * p2 * b
+            jbb = radial + 2 * b * b * d_radial + 6 * p1 * b + 2 * p2 * a
+            det = jaa * jbb - jab * jba
+            det = np.where(np.abs(det) > 1e-12, det, 1e-12)
+            a = a - (jbb * ra - jab * rb) / det
+            b = b - (jaa * rb - jba * ra) / det
+        return a, b
+
     def rays(self, pixels) -> tuple[np.ndarray, np.ndarray]:
         """Back-projection: pixels (N, 2) → ``(origin (3,), unit directions (N, 3))`` in
         the world, distortion removed."""
-        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 1, 2)
-        norm = cv2.undistortPoints(pixels, self.K, self.dist, None, None, None,
-                                       (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-12))
-        d = np.concatenate([norm.reshape(-1, 2), np.ones((len(pixels), 1))], 1) @ self.R
+        pixels = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        K = self.K
+        b_d = (pixels[:, 1] - K[1, 2]) / K[1, 1]
+        a_d = (pixels[:, 0] - K[0, 2] - K[0, 1] * b_d) / K[0, 0]
+        a, b = self._undistorted(a_d, b_d)
+        d = np.stack([a, b, np.ones_like(a)], 1) @ self.R
         return self.centre, d / np.linalg.norm(d, axis=1, keepdims=True)
 
     def scaled(self, factor: float) -> Camera:

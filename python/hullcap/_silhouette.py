@@ -201,6 +201,8 @@ def clean_mask(mask: np.ndarray, min_blob: int = 200, max_hole: int | None = 200
     # Everything below happens in the foreground's box (about a third of a frame): the
     # same components, the same holes.
     x, y, w, h = cv2.boundingRect(fg)
+    if w == 0:  # no foreground: nothing to clean (OpenCV 5 refuses an empty box below)
+        return fg
     box = fg[y:y + h, x:x + w]
     _clear_components(box, 8, lambda size: size < min_blob)
     # Holes: the background that a flood from a frame of background round the box does not
