@@ -4,18 +4,27 @@
 #   make bench   every benchmark, with its reference peers (SciPy, pykdtree, Open3D), and the
 #                development set last (where it is: benchmarks/devset.py)
 #   make paper   the paper's evaluation: plots and docs/paper.md
-#   make wheel   a release wheel in dist/
+#   make wheel   the release wheel in dist/: abi3 (every CPython >= 3.11), manylinux2014
+#   make check-wheel  that wheel installed into fresh virtual environments of the oldest and newest
+#                Python found, with the newest dependencies its ranges allow, tracking a take
+#   make test-lowest  make test in .venv-lowest, every dependency at the lowest version allowed
+#   make lock    resolve requirements/lock.txt (newest allowed) and lowest.txt again
+#
+# Every pip install here is constrained by the lock (PIP_CONSTRAINT): a fresh machine gets the
+# versions that were tested, whatever the registries hold today.
 
 PYTHON ?= python3
-VENV   := .venv
+VENV   ?= .venv
+LOCK   ?= requirements/lock.txt
 PY     := $(VENV)/bin/python
 export VIRTUAL_ENV := $(abspath $(VENV))
+export PIP_CONSTRAINT := $(abspath $(LOCK))
 
 ENGINE_SOURCES := Cargo.toml pyproject.toml $(wildcard Cargo.lock) \
                   $(shell find crates -name '*.rs' -o -name Cargo.toml)
 ENGINE := $(VENV)/.engine-built
 
-.PHONY: demo test bench paper docs wheel engine no-rayon clean
+.PHONY: demo test test-lowest bench paper docs wheel check-wheel lock engine no-rayon clean
 
 demo: $(ENGINE)
 	$(VENV)/bin/hullcap demo
@@ -35,7 +44,7 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_devset.py --silhouettes colour exact   # the benchmark of record, ~8 min
 	$(PY) benchmarks/bench_knee.py   # the subject model's knee search on the development set, ~10 min
 	$(PY) benchmarks/bench_girdle.py   # raised arms in bench_devset's runs: the shoulders' height, refits, ~15 s
-	$(VENV)/bin/pip install --quiet 'open3d>=0.18'   # needs Debian's libusb-1.0-0
+	$(VENV)/bin/pip install --quiet open3d   # needs Debian's libusb-1.0-0
 	$(PY) benchmarks/bench_icp.py
 
 # The paper's evaluation (issue 6): plots and docs/paper.md, seeded.
@@ -46,8 +55,27 @@ paper: $(ENGINE)
 docs: $(ENGINE)
 	COLUMNS=100 $(PY) -c "from hullcap._cli import reference; print(reference())" > docs/cli.md
 
+test-lowest:
+	$(MAKE) test VENV=.venv-lowest LOCK=requirements/lowest.txt
+
+# One abi3 wheel serves every CPython >= 3.11; zig links it against glibc 2.17 (manylinux2014), so
+# that it installs on the distributions labs run, not only on this machine's glibc.
 wheel: $(PY)
-	$(VENV)/bin/maturin build --release --out dist
+	$(PY) -m pip install --quiet ziglang
+	rm -f dist/hullcap-*.whl
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/maturin build --release --zig \
+	  --compatibility manylinux2014 --out dist
+
+check-wheel: wheel
+	tests/fresh_install.sh dist/hullcap-*.whl
+
+lock: $(PY)
+	$(PY) -m pip install --quiet uv
+	$(VENV)/bin/uv pip compile --quiet pyproject.toml requirements/tools.in --all-extras --universal \
+	  --python-version 3.11 --upgrade -o requirements/lock.txt
+	$(VENV)/bin/uv pip compile --quiet pyproject.toml requirements/tools.in --all-extras \
+	  --resolution lowest-direct --python-version 3.11 --python-platform x86_64-manylinux_2_28 \
+	  -o requirements/lowest.txt
 
 engine: $(ENGINE)
 
@@ -69,4 +97,4 @@ $(ENGINE): $(PY) $(ENGINE_SOURCES)
 	touch $@
 
 clean:
-	rm -rf $(VENV) target dist python/hullcap/_engine*.so
+	rm -rf .venv .venv-lowest target dist python/hullcap/_engine*.so
