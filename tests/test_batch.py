@@ -151,3 +151,12 @@ def test_the_session_toml_of_docs_batch_md_means_what_it_says(tmp_path):
                                 ("warmup", None, None, None, 0.008, False),
                                 ("anna_walk", "anna", "anna_static", None, 0.01, False),
                                 ("ben_jump", "ben", "ben_static", 300, 0.01, False)]
+
+
+def test_the_local_ray_we_start_keeps_token_authentication_without_a_warning(monkeypatch, caplog):
+    from hullcap._batch import RayRunner
+
+    monkeypatch.delenv("RAY_AUTH_MODE", raising=False)
+    with caplog.at_level("INFO"), RayRunner() as runner:
+        assert "CPUs" in runner.name
+    assert not [r for r in caplog.records if "Token authentication" in r.getMessage()]

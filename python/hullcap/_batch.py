@@ -17,6 +17,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 import os
 import shutil
 import sys
@@ -37,6 +38,8 @@ TAKE_FILE = "take.json"
 SUMMARY = "summary.csv"
 PARTIAL = ".partial"
 ATTEMPTS = 2
+RAY_AUTH_LOGGER = "ray._private.authentication.authentication_token_setup"
+"""The logger of Ray's notice that a new local cluster has token authentication on."""
 
 
 @dataclass(frozen=True)
@@ -148,8 +151,16 @@ class RayRunner:
     def __enter__(self):
         ray = self._ray
         if not ray.is_initialized():
-            ray.init(address=self._address, include_dashboard=False, log_to_driver=False,
-                     logging_level="warning")
+            # A local cluster we start keeps Ray's token authentication, which Ray turns on
+            # with a warning at every start; that warning tells a batch's user nothing.
+            said = logging.getLogger(RAY_AUTH_LOGGER)
+            level = said.level
+            said.setLevel(logging.ERROR if self._address is None else level)
+            try:
+                ray.init(address=self._address, include_dashboard=False, log_to_driver=False,
+                         logging_level="warning")
+            finally:
+                said.setLevel(level)
             self._started = True
         cpus = ray.cluster_resources().get("CPU", 0)
         self.name = f"Ray ({cpus:g} CPUs, {self._cpus_per_take:g} per take)"

@@ -46,11 +46,13 @@ class Problem:
 
 
 class ProblemLog:
-    """The problems of a run, in order; warns once per camera (and once for whole frames)
-    on `stream` as they come."""
+    """The problems of a run, in order, each once (a frame's views are read again when the
+    frame is carved again: building the subject's model, then tracking); warns once per
+    camera (and once for whole frames) on `stream` as they come."""
 
     def __init__(self, stream=None, warn: bool = True):
         self.items: list[Problem] = []
+        self._known: set[Problem] = set()
         self.warn = warn
         """Whether to print a warning the first time a camera has a problem."""
         self._stream = stream
@@ -64,7 +66,10 @@ class ProblemLog:
 
     def add(self, frame: int | None, what: str, camera: str | None = None, file=None) -> Problem:
         problem = Problem(frame, camera, None if file is None else str(file), what)
+        if problem in self._known:
+            return problem
         self.items.append(problem)
+        self._known.add(problem)
         if self.warn and camera not in self._warned:
             self._warned.add(camera)
             more = "further problems of this camera" if camera is not None else "further ones"
@@ -74,11 +79,10 @@ class ProblemLog:
     def extend(self, problems) -> None:
         """Take `problems` (from a resumed run) without warning again; those already
         here (the start-up checks, made again) are not repeated."""
-        known = set(self.items)
         for p in problems:
-            if p not in known:
+            if p not in self._known:
                 self.items.append(p)
-                known.add(p)
+                self._known.add(p)
             self._warned.add(p.camera)
 
     def summary(self, limit: int = 4) -> str:
@@ -88,11 +92,12 @@ class ProblemLog:
         other = [p for p, v in zip(self.items, is_view) if not v]
         parts = []
         if views:
-            frames = len({p.frame for p in views})
+            left_out = {(p.frame, p.camera) for p in views}  # a view may have more than one problem
+            frames = len({frame for frame, _ in left_out})
             shown = ", ".join(f"{p.camera} frame {p.frame} {p.what}" for p in views[:limit])
-            parts.append(f"{len(views)} view{'s' * (len(views) != 1)} left out in {frames} "
+            parts.append(f"{len(left_out)} view{'s' * (len(left_out) != 1)} left out in {frames} "
                          f"frame{'s' * (frames != 1)}: {shown}{' …' if len(views) > limit else ''}")
-            per_camera = Counter(p.camera for p in views)
+            per_camera = Counter(camera for _, camera in left_out)
             if len(per_camera) > 1:
                 parts.append("per camera " + ", ".join(f"{c} {k}" for c, k in sorted(per_camera.items())))
         if other:
