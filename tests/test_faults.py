@@ -14,7 +14,7 @@ from hullcap import Sequence, Tracker, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._synth import synthesize
-from hullcap.errors import OptionsError, ResultsError, SequenceError
+from hullcap.errors import CalibrationError, OptionsError, ResultsError, SequenceError
 
 FRAMES = 8
 FAST = TrackerOptions(refine_joints=False)
@@ -70,7 +70,7 @@ def test_one_broken_view_leaves_only_that_view_out(clean, tmp_path, capsys):
     out = tmp_path / "out"
     assert main(["track", str(seq), "--out", str(out), "--no-refine-joints"]) == 0
     captured = capsys.readouterr()
-    assert f"{FRAMES} frames tracked, 0 lost" in captured.out
+    assert f"{FRAMES} of {FRAMES} frames tracked (0 lost" in captured.out
     assert "problems: 7 views left out in 7 frames" in captured.out
     # One warning per camera, not one per frame: cam0 has two broken frames but warns once.
     warnings = [line for line in captured.err.splitlines() if line.startswith("hullcap: warning:")]
@@ -248,3 +248,195 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
     with pytest.raises(SystemExit):
         main(["track", str(seq), "--out", str(out), "--cameras", "cam0,,cam1"])
     assert "camera names separated by commas, got 'cam0,,cam1'" in capsys.readouterr().err
+
+
+def empty_room(seq, cam, frame):
+    """Frame `frame` of camera `cam` replaced by the empty room: nobody in that view."""
+    shutil.copy(seq / "background" / f"{cam}.png", frame_file(seq, cam, frame))
+
+
+def track(seq, out, *more):
+    """`hullcap track` as a user runs it, quickly: its exit code."""
+    return main(["track", str(seq), "--out", str(out), "--no-refine-joints", "--no-overlay", *more])
+
+
+def test_a_view_without_the_person_is_left_out_once(clean, tmp_path, capsys):
+    """A camera's frame that shows only the empty room (the person walked out of that
+    view): an all-background mask is a normal mask, the view is left out of that frame,
+    named once in problems.json, and the run ends well."""
+    seq = copy(clean, tmp_path)
+    empty_room(seq, "cam2", 5)
+    assert track(seq, tmp_path / "out") == 0
+    assert "1 view left out in 1 frame: cam2 frame 5" in capsys.readouterr().out
+    problems = json.loads((tmp_path / "out" / "problems.json").read_text())["problems"]
+    assert [(p["frame"], p["camera"]) for p in problems] == [(5, "cam2")]
+
+
+def test_a_person_who_leaves_every_view_is_absent_then_found_again(clean, tmp_path, capsys):
+    """The empty room in every camera for frames 3 and 4: each is reported once as absent
+    (not as six views left out), the run goes on and tracks the person again when they
+    come back, and exits 0."""
+    from hullcap._evaluate import accuracy
+
+    seq = copy(clean, tmp_path)
+    for frame in (3, 4):
+        for cam in range(6):
+            empty_room(seq, f"cam{cam}", frame)
+    out = tmp_path / "out"
+    assert track(seq, out) == 0
+    assert f"{FRAMES - 2} of {FRAMES} frames tracked (2 lost" in capsys.readouterr().out
+    problems = json.loads((out / "problems.json").read_text())["problems"]
+    assert [(p["frame"], p["camera"]) for p in problems] == [(3, None), (4, None)]
+    assert all(p["what"].startswith("absent: no view shows the person") for p in problems)
+    pose = np.load(out / "pose.npz")
+    assert pose["failed"].tolist() == [f in (3, 4) for f in range(FRAMES)]
+    result = Tracker(Sequence(seq), options=FAST).run(tmp_path / "api", show_progress=False)
+    assert accuracy(result, seq).mean_mm < 20  # the frames after the absence tracked as well as before
+
+
+def test_a_resume_with_other_settings_is_refused_naming_them(clean, tmp_path, monkeypatch, capsys):
+    """Interrupted, then run again with another voxel size or without wrists: refused,
+    with the setting named both ways, instead of a take tracked half one way and half the
+    other; --restart starts over with the new settings."""
+    seq = copy(clean, tmp_path)
+    out = tmp_path / "out"
+    real = Tracker._track
+    monkeypatch.setattr(Tracker, "_track", lambda self, state, result, frame:
+                        (_ for _ in ()).throw(KeyboardInterrupt) if frame == 4 else real(self, state, result, frame))
+    assert track(seq, out) == 130
+    assert (out / ".checkpoint.npz").is_file()
+    monkeypatch.setattr(Tracker, "_track", real)
+    capsys.readouterr()
+    assert track(seq, out, "--voxel", "0.03") == 2
+    assert "other settings (voxel_size: 0.01 then, 0.03 now)" in capsys.readouterr().err
+    assert track(seq, out, "--no-wrists") == 2
+    assert "wrists: True then, False now" in capsys.readouterr().err
+    assert track(seq, out, "--no-wrists", "--restart") == 0
+    assert "l_wrist_flexion" not in np.load(out / "pose.npz")["dof_names"].tolist()
+
+
+def test_a_fault_mid_run_keeps_every_frame_tracked_before_it(clean, tmp_path, monkeypatch):
+    """A fault at frame 6 (here a bug, raised by the fit): the checkpoint holds frames 0-5
+    with the state frame 6 found, and the resume tracks only frames 6 on, to the same
+    joints as a run that never stopped."""
+    seq = Sequence(clean)
+    real = Tracker._track
+    tracked, faults = [], [6]
+
+    def failing(self, state, result, frame):
+        tracked.append(frame)
+        if frame in faults:
+            faults.remove(frame)
+            raise RuntimeError("a fault")
+        return real(self, state, result, frame)
+
+    monkeypatch.setattr(Tracker, "_track", failing)
+    with pytest.raises(RuntimeError, match="a fault"):
+        Tracker(seq, options=FAST).run(tmp_path / "out", show_progress=False)
+    tracked.clear()
+    resumed = Tracker(seq, options=FAST).run(tmp_path / "out", show_progress=False)
+    assert tracked == [6, 7]
+    monkeypatch.setattr(Tracker, "_track", real)
+    straight = Tracker(seq, options=FAST).run(tmp_path / "straight", show_progress=False)
+    assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
+
+
+def test_the_subject_model_is_kept_as_soon_as_it_is_built(clean, tmp_path, monkeypatch):
+    """Killed while tracking the first frame, after the minutes of building the subject's
+    model: the resume does not build it again."""
+    seq = Sequence(clean)
+    monkeypatch.setattr(Tracker, "_track", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt))
+    with pytest.raises(KeyboardInterrupt):
+        Tracker(seq, options=FAST).run(tmp_path / "out", show_progress=False)
+    monkeypatch.undo()
+    again = Tracker(seq, options=FAST)
+    assert not again.run(tmp_path / "out", show_progress=False).failed.any()
+    assert again.seconds.get("subject", 0) == 0
+
+
+def test_a_reused_folder_keeps_nothing_of_the_last_take(clean, tmp_path, capsys):
+    """A take tracked into a folder where another was tracked with --smooth and exported:
+    the last take's files go; a folder holding files no run wrote is refused, naming
+    them."""
+    seq = copy(clean, tmp_path)
+    out = tmp_path / "out"
+    assert track(seq, out, "--smooth", "6") == 0 and main(["export", str(out), "--format", "trc"]) == 0
+    assert (out / "joints_smooth.csv").is_file() and (out / "joints.trc").is_file()
+    assert track(seq, out, "--frames", "3", "--restart") == 0
+    assert not (out / "joints_smooth.csv").exists() and not (out / "joints.trc").exists()
+    assert "3 of 3 frames tracked" in capsys.readouterr().out
+    (out / "notes.txt").write_text("mine")
+    assert track(seq, out, "--restart") == 2
+    assert "holds files that are not a run's (notes.txt)" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "mine"
+
+
+def test_one_camera_is_refused_whatever_the_volume(clean, tmp_path, capsys):
+    seq = copy(clean, tmp_path)
+    cameras = json.loads((seq / "cameras.json").read_text())
+    cameras["cameras"] = cameras["cameras"][:1]
+    (seq / "cameras.json").write_text(json.dumps(cameras))
+    for more in ((), ("--volume=-1,-1,0,1,1,2",)):
+        assert track(seq, tmp_path / "out", *more) == 2
+        err = capsys.readouterr().err
+        assert "one camera ('cam0') cannot make a visual hull" in err and "capture volume" not in err
+    assert not (tmp_path / "out" / "model").exists()
+
+
+def test_a_run_that_tracks_nothing_fails_and_lists_only_what_it_wrote(clean, tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(Tracker, "_track", lambda self, state, result, frame: result.fail(frame))
+    assert track(copy(clean, tmp_path), tmp_path / "out") == 2
+    err = capsys.readouterr().err
+    assert f"no frame of {FRAMES} was tracked" in err
+    assert "written: model/, joints.csv, pose.npz, report.png, problems.json" in err
+    assert not (tmp_path / "out" / "motion.bvh").exists()
+
+
+def test_an_unwritable_or_full_folder_is_refused_before_any_work(clean, tmp_path, monkeypatch):
+    """Found at once, not after the subject's model was built; a write that fails for
+    want of room names its file."""
+    from hullcap import _run_folder
+    from hullcap._files import atomic_write
+
+    monkeypatch.setattr(Tracker, "_subject", lambda *a: pytest.fail("the subject's model was built"))
+    # A folder that cannot be made (a file stands where it would go): what a read-only disk
+    # gives too, without depending on who runs the test (root writes anywhere).
+    (tmp_path / "a file").write_text("")
+    with pytest.raises(ResultsError, match="cannot write the results there"):
+        Tracker(Sequence(clean), options=FAST).run(tmp_path / "a file" / "out", show_progress=False)
+    monkeypatch.setattr(_run_folder.shutil, "disk_usage", lambda path: shutil._ntuple_diskusage(10**9, 10**9, 10**6))
+    with pytest.raises(ResultsError, match=r"1 MB free, a run of 48 views needs about 53 MB"):
+        Tracker(Sequence(clean), options=FAST).run(tmp_path / "full", show_progress=False, overlays=True)
+
+    def full(path):
+        raise OSError(28, "No space left on device")
+    with pytest.raises(OSError, match=r"No space left on device: '.*pose.npz'"):
+        atomic_write(tmp_path / "pose.npz", full)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda cams, meta: cams[0]["K"][0].__setitem__(0, float("nan")),
+     r"camera 'cam0': K must be finite numbers, got \[\[nan"),
+    (lambda cams, meta: cams[0].__setitem__("width", "400"),
+     r"camera 'cam0': width must be a positive whole number of pixels, got '400' \(a str\)"),
+    (lambda cams, meta: meta.__setitem__("framez", 8),
+     r"meta.json: unknown key 'framez' \(did you mean 'frames'\?\)"),
+], ids=["nan focal length", "width as text", "unknown meta key"])
+def test_a_bad_calibration_or_meta_says_what_it_got(clean, tmp_path, change, message):
+    seq = copy(clean, tmp_path)
+    cameras, meta = json.loads((seq / "cameras.json").read_text()), json.loads((seq / "meta.json").read_text())
+    change(cameras["cameras"], meta)
+    (seq / "cameras.json").write_text(json.dumps(cameras))
+    (seq / "meta.json").write_text(json.dumps(meta))
+    with pytest.raises((SequenceError, CalibrationError), match=message):
+        Sequence(seq)
+
+
+def test_a_meta_json_of_fewer_frames_than_the_files_tracks_those_without_a_false_warning(clean, tmp_path):
+    seq = copy(clean, tmp_path)
+    (seq / "meta.json").write_text(json.dumps({"fps": 30, "frames": FRAMES - 3}))
+    tracker = Tracker(Sequence(seq), options=FAST)
+    result = tracker.run(tmp_path / "out", show_progress=False)
+    assert len(result.failed) == FRAMES - 3
+    (said,) = [str(p) for p in tracker.problems]
+    assert f"only the first {FRAMES - 3} are tracked" in said and "missing" not in said

@@ -391,7 +391,7 @@ def test_command_line_synth_then_track(tmp_path, capsys):
     assert main(["synth", str(seq), "--frames", "3", "--cameras", "6", "--motion", "squat"]) == 0
     assert Sequence(seq).n_frames == 3
     assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--hand-reach", "0.6"]) == 0
-    assert "3 frames tracked, 0 lost" in capsys.readouterr().out
+    assert "3 of 3 frames tracked (0 lost" in capsys.readouterr().out
     assert main(["track", str(seq), "--out", str(tmp_path / "bad"), "--hand-reach", "1.5"]) == 2
     assert "hand_reach must be in (0, 1], got 1.5" in capsys.readouterr().err
 

@@ -54,6 +54,11 @@ def atomic_write(path, data: bytes | Callable[[Path], None]) -> None:
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
         publish(tmp, path)
+    except OSError as e:
+        Path(tmp).unlink(missing_ok=True)
+        if e.filename is None:  # a failed write names no file ("No space left on device"): name it
+            raise OSError(e.errno, e.strerror, str(path)) from e
+        raise
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -263,17 +263,20 @@ def smooth_joints(joints: np.ndarray, fps: float, cutoff_hz: float, order: int =
     return out
 
 
-def write_outputs(out, result: TrackingResult, interpolate: bool = False, smooth_hz: float | None = None) -> None:
-    """Write ``joints.csv``, ``pose.npz``, ``motion.bvh`` and ``model.glb``, each
-    atomically; with `interpolate`, failed frames between fitted ones are filled in the
-    outputs (``pose.npz`` keeps the raw poses and says which); with `smooth_hz`, also
-    ``joints_smooth.csv`` (see :func:`smooth_joints`)."""
+def write_outputs(out, result: TrackingResult, interpolate: bool = False, smooth_hz: float | None = None) -> list[str]:
+    """Write ``joints.csv``, ``pose.npz``, ``motion.bvh`` and ``model.glb`` (these two
+    when a frame has a pose), each atomically; with `interpolate`, failed frames between
+    fitted ones are filled in the outputs (``pose.npz`` keeps the raw poses and says
+    which); with `smooth_hz`, also ``joints_smooth.csv`` (see :func:`smooth_joints`).
+    Returns the names written."""
     out = Path(out)
     shown = result.interpolated() if interpolate else result
     write_joints_csv(out / "joints.csv", shown)
+    written = ["joints.csv"]
     if smooth_hz:
         write_joints_csv(out / "joints_smooth.csv", replace(shown, joints=smooth_joints(shown.joints, result.fps,
                                                                                          smooth_hz)))
+        written.append("joints_smooth.csv")
     buf = io.BytesIO()
     arrays = result.arrays()
     arrays.pop("joints")
@@ -281,10 +284,13 @@ def write_outputs(out, result: TrackingResult, interpolate: bool = False, smooth
         arrays["interpolated"] = shown.status == INTERPOLATED
     np.savez(buf, **arrays)
     atomic_write(out / "pose.npz", buf.getvalue())
+    written.append("pose.npz")
     if (~shown.failed).any():
         motion = (shown.model, shown.root_translation, shown.root_rotation, shown.theta, shown.fps)
         write_bvh(out / "motion.bvh", *motion)
         write_glb(out / "model.glb", *motion)
+        written += ["motion.bvh", "model.glb"]
+    return written
 
 
 def write_joints_csv(path, result: TrackingResult) -> None:

@@ -11,6 +11,7 @@ frames each camera has on disk (``meta.json`` may claim more).
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from pathlib import Path
@@ -94,6 +95,10 @@ class Sequence:
         self._mask_video_paths = self._find_videos("silhouettes")
         meta_path = self.path / "meta.json"
         meta = read_document(meta_path, SequenceError) if meta_path.is_file() else self._meta_from_videos(meta_path)
+        unknown = sorted(set(meta) - {"fps", "frames"})
+        if unknown:
+            raise SequenceError(f"{meta_path}: unknown key {unknown[0]!r}{_did_you_mean(unknown[0], ('fps', 'frames'))}"
+                                f"; meta.json holds \"fps\" and \"frames\" only")
         try:
             self.fps = float(meta["fps"])
             frames = float(meta["frames"])
@@ -453,3 +458,9 @@ def _jpeg_size(data: bytes) -> tuple[int, int] | None:
             return int.from_bytes(data[i + 7:i + 9], "big"), int.from_bytes(data[i + 5:i + 7], "big")
         i += 2 + length
     return None
+
+
+def _did_you_mean(name: str, known) -> str:
+    """`` (did you mean 'frames'?)`` when `name` is close to one of `known`, else nothing."""
+    close = difflib.get_close_matches(name, known, n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""

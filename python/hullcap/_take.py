@@ -14,11 +14,10 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-from hullcap.errors import OptionsError
+from hullcap.errors import OptionsError, TrackingError
 
 __all__ = ["TakeOptions", "TakeSummary", "track_take"]
 
-MADE = "joints.csv, pose.npz, model/, motion.bvh, model.glb, report.png, problems.json"
 FEW_CAMERAS = 6
 """Below this many cameras ``hullcap track`` warns when it subtracts the background: on the
 development set's adults filmed by 4 of their cameras, colour frames lost limbs for
@@ -179,8 +178,13 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     summary = TakeSummary(frames=len(result.failed), lost=int(result.failed.sum()),
                           recovered=int((result.status == RECOVERED).sum()), seconds=time.perf_counter() - t0,
                           problems=tracker.problems.summary() if len(tracker.problems) else "")
-    say(f"{out}: {summary.frames} frames tracked, {summary.lost} lost, {summary.recovered} re-acquired; "
-        f"{MADE}{', overlay/' if options.overlays else ''}")
+    if summary.lost == summary.frames:
+        raise TrackingError(f"{out}: no frame of {summary.frames} was tracked"
+                            + (f" ({summary.problems})" if summary.problems else "")
+                            + f"; written: {', '.join(tracker.written)} (report.png shows each frame's fit)")
+    say(f"{out}: {summary.frames - summary.lost} of {summary.frames} frames tracked ({summary.lost} lost, "
+        f"{summary.recovered} re-acquired); "
+        f"{', '.join(tracker.written)}")
     if summary.problems:
         say(f"problems: {summary.problems} (all in {Path(out) / 'problems.json'})")
     held = result.limits_held()

@@ -29,12 +29,14 @@ every output is written, lets an interrupted run resume where it stopped.
 
 from __future__ import annotations
 
+import hashlib
 import io
+import json
 import os
 import time
 import warnings
 from collections import defaultdict
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -48,14 +50,15 @@ from hullcap._hull import HullReport, capture_volume, check_bounds, doubtful_ver
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._render import render_silhouette
+from hullcap._run_folder import check_room, check_writable, clear
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff, write_outputs
-from hullcap._sequence import Sequence
+from hullcap._sequence import MIN_CAMERAS, Sequence
 from hullcap._silhouette import background_model
 from hullcap._subject import bent_frames, build_subject, fitted_surface, place_model, search_centres, with_hands
 from hullcap._threads import ReadAhead, over_fits, over_views
-from hullcap._tracking_options import TrackerOptions
+from hullcap._tracking_options import TrackerOptions, settings
 from hullcap._tracking_state import TrackingState
-from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError, ViewError
+from hullcap.errors import HullError, OptionsError, ResultsError, SequenceError, TrackingError, ViewError
 
 __all__ = ["Tracker", "TrackerOptions"]
 
@@ -79,6 +82,9 @@ class Tracker:
     def __init__(self, sequence: Sequence | str | os.PathLike, model: BodyModel | None = None,
                  options: TrackerOptions | None = None, bounds=None):
         self.sequence = sequence = sequence if isinstance(sequence, Sequence) else Sequence(sequence)
+        if len(sequence.cameras) < MIN_CAMERAS:
+            raise SequenceError(f"{sequence.path}: one camera ({sequence.cameras.names[0]!r}) cannot make a visual "
+                                f"hull: tracking needs at least {MIN_CAMERAS} calibrated views of the person")
         self.model = model
         self.options = options or TrackerOptions()
         if bounds is None:
@@ -103,6 +109,8 @@ class Tracker:
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
         """Frames and views left out, and why (:mod:`hullcap._problems`)."""
+        self.written: list[str] = []
+        """The files and folders the last :meth:`run` wrote into its folder."""
 
     # -- one frame's input -------------------------------------------------------------
 
@@ -291,6 +299,10 @@ class Tracker:
         silhouettes = self._silhouettes(*prior) if used else None
         self.seconds["silhouettes"] += time.perf_counter() - t0  # the prediction, drawn for the masks
         masks, unsure = self._segment(frame, silhouettes)
+        if all((frame, cam.name) in self._broken for cam in self.sequence.cameras):
+            raise HullError("no usable view: every camera's was left out")
+        if not any(m.any() for m in masks):
+            raise PersonAbsent("absent: no view shows the person (every mask is empty)")
         t0 = time.perf_counter()
         report = HullReport()
         priors = None if silhouettes is None or tolerance == 0 else \
@@ -335,11 +347,14 @@ class Tracker:
         if smooth_hz is not None:
             check_cutoff(smooth_hz, self.sequence.fps)  # now, not after tracking
         out = Path(out)
-        out.mkdir(parents=True, exist_ok=True)
+        check_writable(out)
         self.problems.warn = show_progress
         n = self._frames_to_track(frames)
-        result, start, state = self._resume(out, n) if resume else (None, 0, None)
+        check_room(out, n * (len(self.sequence.cameras) if overlays else 1))
+        settings = self._settings(n)
+        result, start, state = self._resume(out, n, settings) if resume else (None, 0, None)
         if result is None:
+            clear(out)
             t0, before = time.perf_counter(), dict(self.seconds)
             model, start, anchor = self._subject(n, show_progress)
             self._teach_at = self._teaching_frames(start, n)
@@ -351,23 +366,49 @@ class Tracker:
             tracked.save(out / "model")
             result = TrackingResult.empty(tracked, n, self.sequence.fps)
             state = self._tracking_state(tracked, start, anchor, built=model)
+            self._checkpoint(out, result, start, settings, state.carried(), self._learnt())  # the model's work kept
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
-        with self._reading_ahead(range(start, n)):
-            for frame in bar:
-                self._track(state, result, frame)
-                if frame % 10 == 0:
-                    self._checkpoint(out, result, frame + 1, state)
+        frame, carried, learnt = start, state.carried(), self._learnt()
+        try:
+            with self._reading_ahead(range(start, n)):
+                for frame in bar:
+                    if frame > start:
+                        carried, learnt = state.carried(), self._learnt()
+                    self._track(state, result, frame)
+                    if frame % 10 == 0:
+                        self._checkpoint(out, result, frame + 1, settings, state.carried(), self._learnt())
+        except BaseException:
+            # Interrupted, or a fault: every frame tracked before this one is kept, with the
+            # state as this frame found it, so that a resume goes on as this run would have.
+            with suppress(OSError):
+                self._checkpoint(out, result, frame, settings, carried, learnt)
+            raise
         bar.close()
-        self._checkpoint(out, result, n, state)
+        self._checkpoint(out, result, n, settings, state.carried(), self._learnt())
         result.seconds = dict(self.seconds)
-        write_outputs(out, result, interpolate, smooth_hz)
+        self.written = ["model/", *write_outputs(out, result, interpolate, smooth_hz)]
         write_report(out / "report.png", result)
+        self.written.append("report.png")
         if overlays:
             write_overlays(out, self.sequence, result, show_progress=show_progress)
+            self.written.append("overlay/")
         self.problems.save(out / PROBLEMS)
+        self.written.append(PROBLEMS)
         (out / CHECKPOINT).unlink(missing_ok=True)
         return result
+
+    def _settings(self, n: int) -> dict:
+        """What decides this run's results besides the sequence (a checkpoint records it:
+        :meth:`_resume`): the options, the frames, the image scale, the capture volume
+        and the model given, if one was."""
+        given = None
+        if self.model is not None:
+            digest = hashlib.sha256(np.ascontiguousarray(self.model.vertices).tobytes())
+            digest.update(np.ascontiguousarray(self.model.links).tobytes())
+            given = digest.hexdigest()[:16]
+        return {**settings(self.options), "frames": n, "image_scale": self.sequence.image_scale,
+                "volume": np.asarray(self.bounds).ravel().tolist(), "model given": given}
 
     @contextmanager
     def _reading_ahead(self, frames):
@@ -394,10 +435,13 @@ class Tracker:
         seq = self.sequence
         n = len(seq) if frames is None else min(frames, len(seq))
         counts = seq.frame_counts(silhouettes=self.given_silhouettes)
-        if any(k != len(seq) for k in counts.values()):
-            on_disk = ", ".join(f"{name} {k}" for name, k in counts.items())
+        on_disk = ", ".join(f"{name} {k}" for name, k in counts.items())
+        if any(k < len(seq) for k in counts.values()):
             self.problems.add(None, f"meta.json says {len(seq)} frames, on disk: {on_disk}; "
                                     f"a camera's missing frames leave its view out")
+        elif any(k > len(seq) for k in counts.values()):
+            self.problems.add(None, f"meta.json says {len(seq)} frames, on disk: {on_disk}; "
+                                    f"only the first {len(seq)} are tracked")
         if not self.given_silhouettes:
             seq.check_image_sizes()
             self._segmenters()
@@ -470,7 +514,7 @@ class Tracker:
                          hull_doubt=None, min_quality=0.0)
         search_fit = self.options.fit.replace(over_relaxation=self.options.calibration_fit.over_relaxation)
         state = TrackingState(subject.model, strict, subject.fit, search_fit=search_fit)
-        for frame in progress(range(first, last), total=last - first, desc="calibrate", enable=show_progress):
+        for frame in progress(range(first, last), total=last - first, desc="subject model", enable=show_progress):
             self._track(state, window, frame)
         stands = window.quality >= self.options.min_quality
         good = [f for f in range(first, last) if not window.failed[f] and stands[f]]
@@ -610,11 +654,15 @@ class Tracker:
                                                      state.options.motion_prior_distance)
         return fit(model or state.model, target, start, options, prior=prior)
 
-    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, state: TrackingState) -> None:
+    def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, settings: dict, carried: dict,
+                    learnt: dict) -> None:
+        """Write the checkpoint: the results so far, the frame to go on from, the run's
+        `settings`, and what tracking (`carried`, :meth:`TrackingState.carried`) and the
+        segmenters (`learnt`, :meth:`_learnt`) carry to that frame."""
         buf = io.BytesIO()
         np.savez(buf, next_frame=next_frame, sequence=str(self.sequence.path.resolve()),
-                 cameras=np.array(self.sequence.cameras.names), **result.arrays(),
-                 **self._learnt(), **state.carried())
+                 cameras=np.array(self.sequence.cameras.names), settings=json.dumps(settings),
+                 **result.arrays(), **learnt, **carried)
         self.problems.save(out / PROBLEMS)
         atomic_write(out / CHECKPOINT, buf.getvalue())
 
@@ -644,34 +692,57 @@ class Tracker:
                 if g is not None:
                     g.colours.restore(subject, background)
 
-    def _resume(self, out: Path, n: int):
+    def _resume(self, out: Path, n: int, settings: dict):
         """``(result, next frame, state)`` of the checkpoint in `out`, or ``(None, 0, None)``
-        when there is none for this sequence."""
+        when there is none for this sequence; ResultsError when it was made with other
+        cameras or `settings`, naming the difference."""
         path = out / CHECKPOINT
         if not path.is_file() or not (out / "model").is_dir():
             return None, 0, None
         try:
             with np.load(path) as z:
-                if str(z["sequence"]) != str(self.sequence.path.resolve()) or len(z["failed"]) != n:
+                if str(z["sequence"]) != str(self.sequence.path.resolve()):
                     return None, 0, None
                 cameras = self.sequence.cameras.names
                 if "cameras" in z.files and z["cameras"].tolist() != cameras:
                     raise ResultsError(f"{path}: this run was tracked with the cameras "
                                        f"{', '.join(z['cameras'].tolist())}, not {', '.join(cameras)}: give the "
                                        f"same cameras to resume it, or --restart (resume=False) to start over")
-                arrays = {k: z[k] for k in z.files if k != "cameras"}
+                if "settings" in z.files:
+                    _check_same_settings(path, json.loads(str(z["settings"])), settings)
+                elif len(z["failed"]) != n:  # a checkpoint from before settings were kept
+                    return None, 0, None
+                arrays = {k: z[k] for k in z.files if k not in ("cameras", "settings")}
             self._relearn(arrays)
             result, start = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays), int(arrays["next_frame"])
             state = self._tracking_state(result.model)
             state.resume(arrays, result, start)
         except ResultsError:
             raise
-        except (*NPZ_ERRORS, TypeError) as e:
+        except (*NPZ_ERRORS, TypeError, json.JSONDecodeError) as e:
             raise ResultsError(f"{path}: the checkpoint is damaged ({e}); run again with --restart "
                                f"(resume=False) to start over") from None
         if (out / PROBLEMS).is_file():
             self.problems.extend(ProblemLog.load(out / PROBLEMS))
         return result, start, state
+
+
+def _check_same_settings(path: Path, then: dict, now: dict, shown: int = 4) -> None:
+    """ResultsError naming the settings (up to `shown`) in which a checkpoint's run, `then`,
+    differs from this one, `now`."""
+    now = json.loads(json.dumps(now))  # as the checkpoint holds them: tuples as lists
+    changed = [k for k in sorted(then.keys() | now.keys()) if then.get(k, "(none)") != now.get(k, "(none)")]
+    if changed:
+        listed = "; ".join(f"{k}: {then.get(k, '(none)')} then, {now.get(k, '(none)')} now" for k in changed[:shown])
+        more = f" and {len(changed) - shown} more" if len(changed) > shown else ""
+        raise ResultsError(f"{path}: this run was tracked with other settings ({listed}{more}): give the same "
+                           f"options to resume it, or --restart (resume=False) to start over")
+
+
+class PersonAbsent(HullError):
+    """A frame in which no view shows the person (every usable view's mask is empty): the
+    person left the capture volume. The frame is recorded once, as a whole, in
+    ``problems.json``; tracking finds the person again when they return."""
 
 
 @dataclass

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 
 from hullcap._fitting import FitOptions
 from hullcap._guided import GuidedOptions
@@ -11,7 +11,10 @@ from hullcap._reacquire import SearchOptions
 from hullcap._subject import SubjectOptions
 from hullcap.errors import OptionsError
 
-__all__ = ["OVER_RELAXATION", "TrackerOptions", "quick_fit_options"]
+__all__ = ["OVER_RELAXATION", "TrackerOptions", "quick_fit_options", "settings"]
+
+NOT_RESULTS = frozenset({"read_ahead", "threads"})
+"""Options that change how fast a run goes, not what it finds (:func:`settings` leaves them out)."""
 
 
 OVER_RELAXATION = 1.5
@@ -322,3 +325,30 @@ class TrackerOptions:
             raise OptionsError(f"recheck_margin must be >= 0 (or None), got {self.recheck_margin}")
         if self.calibration_frames < 2 or self.calibration_seconds <= 0 or self.quality_window < 1:
             raise OptionsError("calibration_frames must be >= 2, calibration_seconds > 0, quality_window >= 1")
+
+
+def settings(options) -> dict[str, object]:
+    """Every setting of `options` (a dataclass of options, nested ones and fit options
+    included) that changes a run's results, by its dotted path (``"fit.max_distance"``), as
+    JSON values: what a checkpoint records, so that a resume with other settings is refused
+    with the difference named (:data:`NOT_RESULTS` are left out)."""
+    out: dict[str, object] = {}
+
+    def walk(value, path: str) -> None:
+        if is_dataclass(value):
+            for f in fields(value):
+                if f.name not in NOT_RESULTS:
+                    walk(getattr(value, f.name), f"{path}{f.name}.")
+        elif isinstance(value, FitOptions):
+            for key, v in value.to_dict().items():
+                if key not in NOT_RESULTS:
+                    out[f"{path}{key}"] = v
+        elif isinstance(value, dict):
+            for key, v in sorted(value.items()):
+                walk(v, f"{path}{key}.")
+        elif isinstance(value, tuple | list):
+            out[path[:-1]] = [list(v) if isinstance(v, tuple) else v for v in value]
+        else:
+            out[path[:-1]] = value
+    walk(options, "")
+    return out
