@@ -187,6 +187,25 @@ class TrueSurfaces:
         return Surface(a + self._u * (b - a) + self._v * (c - a), np.zeros((0, 3), np.int64), normals)
 
 
+FALSE_GOOD_MEAN_MM = 80.0
+FALSE_GOOD_JOINT_MM = 150.0
+"""A frame the tracker calls good (or recovered) is false-good when its mean joint error is
+over the first or any joint's over the second (a limb, not a convention, is wrong)."""
+PCK_MM = 150.0
+"""3DPCK's threshold: a joint within this distance of the truth counts as found."""
+
+
+def honesty(joint_err: np.ndarray, failed: np.ndarray) -> dict:
+    """``{"false_good": frames, "pck150": percent}`` of a run: its frames kept (good or
+    recovered) whose error, `joint_err` (F, J) metres, makes them false-good
+    (:data:`FALSE_GOOD_MEAN_MM`), and the share of joint positions within :data:`PCK_MM`,
+    a failed frame's joints all counted as misses."""
+    kept = ~np.asarray(failed, bool)
+    mm = 1000 * np.asarray(joint_err, float)[kept]
+    wrong = (mm.mean(1) > FALSE_GOOD_MEAN_MM) | (mm.max(1) > FALSE_GOOD_JOINT_MM)
+    return {"false_good": int(wrong.sum()), "pck150": float(100 * (mm <= PCK_MM).sum() / max(1, joint_err.size))}
+
+
 def model_limb_lengths(model) -> dict[str, float]:
     """The limb lengths of a body model at rest (metres)."""
     return _limb_lengths(list(model.joint_names), model.pose().joints[None])

@@ -90,3 +90,17 @@ def test_a_smaller_rig_takes_cameras_spread_evenly_round_the_ring():
     assert devset.spread_cameras(cams, 8) is None and devset.spread_cameras(cams, None) is None
     with pytest.raises(ValueError, match="at least 2 cameras"):
         devset.spread_cameras(cams, 1)
+
+
+def test_false_good_frames_and_3dpck_count_what_the_tracker_kept():
+    """A frame kept with every joint 2 cm off is honest; one kept with a wrist 20 cm off
+    (its mean only 3 cm) is false-good; one kept 9 cm off everywhere is too; a failed frame
+    is no false-good but its joints are all misses."""
+    err = np.full((4, 10), 0.02)
+    err[1, 3] = 0.20
+    err[2] = 0.09
+    err[3] = np.nan
+    failed = np.array([False, False, False, True])
+    found = devset.honesty(err, failed)
+    assert found["false_good"] == 2
+    assert found["pck150"] == pytest.approx(100 * (10 + 9 + 10) / 40)
