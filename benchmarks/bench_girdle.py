@@ -1,5 +1,5 @@
 """Raised arms on the development set: how low the tracked shoulders sit, and whether the
-fit itself prefers them there (docs/accuracy_notebook.md, "Raised arms").
+fit itself prefers them there (docs/notebooks/accuracy.md, "Raised arms").
 
 For each run of ``bench_devset.py`` (its model and tracked poses), the frames where a
 true wrist is 20 cm or more above its shoulder count as raised. The script prints the

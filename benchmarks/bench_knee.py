@@ -1,5 +1,5 @@
 """The knee search of the subject's model on the development set: how far its move lies
-from the truth's, and how much one frame more or less changes it (docs/accuracy_notebook.md, "The
+from the truth's, and how much one frame more or less changes it (docs/notebooks/accuracy.md, "The
 knee search decides by the mean gain alone").
 
 For each sequence and silhouette source the tracker builds the subject's model as

@@ -1230,7 +1230,7 @@ def test_the_camera_that_disagrees_is_the_one_calibrated_wrong(sequence):
 
 def test_one_camera_that_disagrees_is_named_with_how_to_track_without_it():
     """The verdict for a single suspect, from figures as an 8-camera ring with one camera
-    turned by 2° gives them (docs/accuracy_notebook.md, "Views that disagree")."""
+    turned by 2° gives them (docs/notebooks/accuracy.md, "Views that disagree")."""
     from hullcap._agreement import ViewAgreement, describe_agreement
 
     gains = [0.002, 0.003, 0.033, 0.002, 0.001, 0.003, 0.011, 0.002]

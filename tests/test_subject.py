@@ -243,7 +243,7 @@ def test_a_knee_move_follows_the_mean_profile_however_the_frames_scatter():
     quality, between the grid's points by a parabola, taken when it gains at least the least
     gain over keeping the centre, however much single frames disagree about it. (At 413e72f a
     move also had to gain twice its standard error, and one frame more or less decided
-    whether d01's knee moved 4 cm or not at all; docs/accuracy_notebook.md.)"""
+    whether d01's knee moved 4 cm or not at all; docs/notebooks/accuracy.md.)"""
     from hullcap._subject import best_move
 
     moves = 0.01 * np.arange(-4, 5)

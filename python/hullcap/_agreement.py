@@ -7,7 +7,7 @@ then carves the others, and it most), or a silhouette with a hole or a backgroun
 is wrong. Leaving each view out in turn tells which: the view whose absence lets the
 others' silhouettes be covered most is the one that disagrees.
 
-What the thresholds below rest on is in docs/accuracy_notebook.md, "Views that
+What the thresholds below rest on is in docs/notebooks/accuracy.md, "Views that
 disagree".
 """
 

@@ -291,7 +291,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--hand-reach", type=float, metavar="F",
                    help="fit each hand pulled toward its wrist to this fraction of its length (1: whole hands; "
                         "default 0.6 with the sequence's own silhouettes, 1 with background subtraction, see "
-                        "docs/accuracy_notebook.md)")
+                        "docs/notebooks/accuracy.md)")
     t.add_argument("--no-wrists", dest="wrists", action="store_false",
                    help="track with the paper's 29 DOF, each hand rigid with its forearm (default: the hands turn at "
                         "the wrists, two DOF each, added once the subject's model is built)")

@@ -57,7 +57,7 @@ class GuidedOptions:
             is itself wrong by a limb at times, and a limb kept where the colours say floor
             is carved into the hull and confirms itself. On the development set, prior 6
             gave 31.9 mm mean raw MPJPE from colour frames, 3 gave 30.0, 2 gave 29.3
-            (docs/accuracy_notebook.md).
+            (docs/notebooks/accuracy.md).
         band: half-width of the band over which the prior goes from 0 at the predicted
             outline to full, as a fraction of the person's image height (0.04: 10 px at
             250 px tall, about a frame's prediction error of a limb at `band_frame_rate`).
@@ -72,7 +72,7 @@ class GuidedOptions:
             frames/s). With the bands of 30 frames/s, the development set tracked from
             every third frame (10 frames/s) lost 36 of d01's 65 frames and folded a
             forearm of d02 for good; with the outer band widened, 1 frame, and 30.5
-            against 40.2 mm (docs/accuracy_notebook.md, "Fewer frames a second").
+            against 40.2 mm (docs/notebooks/accuracy.md, "Fewer frames a second").
         background_weight: weight of the statistical test's evidence for the background
             (negative evidence, at most 3 spreads) against its evidence for the subject.
         colour_weight: weight of the colour log-ratio (clipped to ±4).
@@ -86,7 +86,7 @@ class GuidedOptions:
             (one view's IoU 0.28). Below 1: the empty scene lacks colours the band has
             (the subject's shadow), which must stay background. Half and half raised the
             guided masks' mean IoU on every development sequence (d04 0.829 → 0.931, d03 0.864 → 0.936;
-            docs/accuracy_notebook.md, "Silhouettes on the development set").
+            docs/notebooks/accuracy.md, "Silhouettes on the development set").
         learn_margin: a pixel teaches the subject's colours when it is this far inside the
             fitted model's outline, the background's when this far outside and within
             four such margins of it (fractions of the person's image height).
@@ -102,7 +102,7 @@ class GuidedOptions:
             floor's joints still show is then background, one beside it that hides them
             subject) is the value to use. It raises the guided masks' IoU on all four
             development sequences (d01 0.839 → 0.851, d02 0.931 → 0.944), but tracking
-            from colour frames came out worse on average, twice (docs/accuracy_notebook.md, "Silhouettes
+            from colour frames came out worse on average, twice (docs/notebooks/accuracy.md, "Silhouettes
             on the development set"), so it is off until that is understood.
         texture_window: side (pixels, odd) of the window the correlation is taken over.
         texture_min_std: the background's grey-level standard deviation over the window
@@ -121,7 +121,7 @@ class GuidedOptions:
             There the view sees the room with certainty; where it missed the subject's
             trousers, the colour of the floor, it was unsure (log-odds about −1). 2: odds
             of 7 to 1 for the background after the prior's own 7 to 1 for the subject
-            were counted (docs/accuracy_notebook.md, "The tolerant hull's phantom volume").
+            were counted (docs/notebooks/accuracy.md, "The tolerant hull's phantom volume").
     """
 
     prior: float = 2.0

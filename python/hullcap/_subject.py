@@ -308,7 +308,7 @@ def search_centres(model: BodyModel, joint: str, axis: str, targets, poses,
     profile, where every move explains the frames about as well, is noise, and noise must
     not move a joint. The gain is not also weighed against its spread over the frames:
     near the peak the profile is flat by nature, so that test decided by a frame or two
-    whether a clear peak was taken or ignored (docs/accuracy_notebook.md)."""
+    whether a clear peak was taken or ignored (docs/notebooks/accuracy.md)."""
     options = options or SubjectOptions()
     if not targets:
         return model, 0.0

@@ -505,7 +505,7 @@ class Tracker:
         # first model, built from one standing frame, explains a bend less well than the
         # refined one will (d01 from colour frames fell under `min_quality` in its first
         # bend and never came back, which left two thirds of the window unused and the
-        # knees placed from three frames; docs/accuracy_notebook.md). Only the frames whose fits
+        # knees placed from three frames; docs/notebooks/accuracy.md). Only the frames whose fits
         # reach `min_quality` build the model. Every fit here, the search's too, steps as
         # `calibration_fit` does (plain by default: the knee search turns on small
         # differences between these poses; `TrackerOptions.fit`).

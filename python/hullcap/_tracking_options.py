@@ -63,7 +63,7 @@ class TrackerOptions:
             that most views miss in a deep bend carve the thighs to half their width; the
             fit pulled the legs into what was left (hips twisted, the pelvis low), and
             with those vertices left out the legs follow their neighbours instead (d01
-            from colour frames: 24.4 → 23.4 mm; docs/accuracy_notebook.md). 2 cm: two voxels,
+            from colour frames: 24.4 → 23.4 mm; docs/notebooks/accuracy.md). 2 cm: two voxels,
             beyond the smoothing of the masks' log-odds (a pixel or two outside every
             outline is unsure). ``None`` fits the whole hull. Not while the subject's
             model is built (`refine_joints`): the knee's centre is found from small gains
@@ -78,7 +78,7 @@ class TrackerOptions:
             the torso outwards, then all together. One pass over the stages
             (``rounds=1``): a frame starts a frame away from its pose, and on the
             development set a second pass took a third more iterations (43 against 32 a
-            frame on average) for no better joints (docs/accuracy_notebook.md). The stages pair
+            frame on average) for no better joints (docs/notebooks/accuracy.md). The stages pair
             every second model point (``coarse=2``) and the final fit of everything
             together all of them: on 104 development-set frames fitted from the tracked
             predictions that took 45 ms a fit instead of 60, to the same joint error. The
@@ -106,7 +106,7 @@ class TrackerOptions:
             three lost the left forearm for 30 frames (MPJPE 17.9 → 26.5 mm), which the
             hierarchical fit never did in eight runs; since tracking makes one round of
             coarse stages it gains no speed, and d02 from colour frames lost 15 mm with it
-            (docs/performance_notebook.md). The first seconds tracked to refine
+            (docs/notebooks/performance.md). The first seconds tracked to refine
             the subject's model (`refine_joints`) never use it: the model is built from
             those poses once, and quick fits there moved its limb lengths by up to 4.6
             percentage points.
@@ -129,7 +129,7 @@ class TrackerOptions:
             with a model given, the guided masks know one frame's colours, and tracking
             teaches them from as many frames over as many seconds as it goes: over the development set with each
             sequence's model given, from colour frames, 23.0 / 15.4 mm → 22.6 / 14.9 and
-            d01's one lost frame tracked (docs/accuracy_notebook.md). Where a knee sits
+            d01's one lost frame tracked (docs/notebooks/accuracy.md). Where a knee sits
             shows only in frames where it bends (:func:`hullcap._subject.bent_frames`),
             and people take a few seconds to bend one: in the first 3 s of d02 the tracked
             knees bent by 45° in a single landing, two or three usable frames, too few for
@@ -137,7 +137,7 @@ class TrackerOptions:
             hold its second landing too, and over the development set the mean MPJPE fell
             from 24.8/16.7 to 24.5/16.6 mm (colour frames, with the scene's colours in
             the guided masks) and from 23.7/15.1 to 22.3/14.8 (exact masks)
-            (docs/accuracy_notebook.md). A sequence shorter than the window is tracked whole.
+            (docs/notebooks/accuracy.md). A sequence shorter than the window is tracked whole.
         calibration_fit: the fit of those first seconds, in place of `fit`: the model is
             built once from their poses, so they get two rounds over the hierarchy's
             stages. With one, the poses of the demo's window moved the knee search's best
@@ -149,7 +149,7 @@ class TrackerOptions:
             `fit`, and a pose a search finds is fitted again with this one: 52 of the 54
             searches of d01's window (from colour frames) only confirmed the tracked fit,
             at 1.2 s each with this fit and 0.6 s with `fit` (before a search fitted only
-            candidates that beat the tracked fit, docs/performance_notebook.md).
+            candidates that beat the tracked fit, docs/notebooks/performance.md).
         quality_window: the accepted frames (most recent) whose median quality is the
             reference a new frame is judged against.
         quality_margin: a fit passes without a search when its quality is at most this far
@@ -193,7 +193,7 @@ class TrackerOptions:
             girdle start's tolerance). Where the hull loses a forearm (an arm the colour of
             the wall behind it), folding it onto the upper arm lets its points pair with
             the upper arm's and the head's hull and explains the hull a little better
-            (0.002 in the case measured, docs/accuracy_notebook.md "A limb the hull lost"); a limb
+            (0.002 in the case measured, docs/notebooks/accuracy.md "A limb the hull lost"); a limb
             that really moved that far, and that the hull shows, is explained far better
             free. ``None``: no check.
         elbow_doubt, elbow_span: seconds for which an elbow that turned fast stays in
@@ -210,7 +210,7 @@ class TrackerOptions:
             hull lost it (an arm the colour of the wall behind it), at once or over a few
             frames, is otherwise drawn into the next frame's guide, which keeps the real
             forearm out of the masks: on the development set such folds lasted to the
-            sequence's end (docs/accuracy_notebook.md, "A limb the hull lost"). 0.1 s is three
+            sequence's end (docs/notebooks/accuracy.md, "A limb the hull lost"). 0.1 s is three
             frames at 30 frames/s; 45° in that time (450°/s) a fold exceeds, and so do
             fast arms, for which the fit from the forearm as it was explains the hull
             worse and is not kept. Knees are left out: a running knee turns that fast at
@@ -228,7 +228,7 @@ class TrackerOptions:
             further off, and a change of 30° (a fast punch's elbow between frames at 30
             frames/s) 3 mm. Off by default (``None``, the paper's energy): over the
             development set it moved MPJPE by −1.4 to +1.4 mm, 0.25 mm worse on average
-            (docs/accuracy_notebook.md); the fold it guards against came once, in one run.
+            (docs/notebooks/accuracy.md); the fold it guards against came once, in one run.
         motion_prior_distance: metres of pair distance one `motion_sigma` is worth.
         hand_reach: the part of each hand (wrist to fingertips) the fits of tracking keep
             (:func:`hullcap._subject.with_hands`): the sequence is fitted with the
@@ -244,7 +244,7 @@ class TrackerOptions:
             background subtraction. With exact masks 0.6 made every development run as
             good or better (mean 22.6 / 15.1 → 21.4 / 14.0 mm; d03's shoulders, arms
             raised, 14 mm low instead of 26); from colour frames it gained nothing, and at
-            0.7 one run was lost from its 75th frame on (docs/accuracy_notebook.md, "Hands as the
+            0.7 one run was lost from its 75th frame on (docs/notebooks/accuracy.md, "Hands as the
             hull sees them").
         wrists: track with hands that turn at the wrists (:meth:`BodyModel.with_wrists`,
             two DOF each), added to the subject's model once it is built; the results
@@ -255,7 +255,7 @@ class TrackerOptions:
             rigid hand that the hull shows bent pulls its forearm toward it: with wrists
             the development set's mean error went 23.7 / 16.3 → 23.2 / 15.7 mm from colour
             frames and 21.3 / 13.9 → 20.8 / 13.5 from exact masks, the synthetic demo's,
-            whose hands never bend, 5.0 → 5.6 mm (docs/accuracy_notebook.md). ``False``: the
+            whose hands never bend, 5.0 → 5.6 mm (docs/notebooks/accuracy.md). ``False``: the
             paper's 29 DOF throughout.
         read_ahead: frames decoded and put through the background test on a second
             thread while the engine fits the frame before (:mod:`hullcap._threads`); 0
