@@ -284,7 +284,9 @@ def test_a_person_who_leaves_every_view_is_absent_then_found_again(clean, tmp_pa
             empty_room(seq, f"cam{cam}", frame)
     out = tmp_path / "out"
     assert track(seq, out) == 0
-    assert f"{FRAMES - 2} of {FRAMES} frames tracked (2 lost" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert f"{FRAMES - 2} of {FRAMES} frames tracked (2 lost" in said
+    assert "problems: 2 frames without the person in any view: 3–4" in said
     problems = json.loads((out / "problems.json").read_text())["problems"]
     assert [(p["frame"], p["camera"]) for p in problems] == [(3, None), (4, None)]
     assert all(p["what"].startswith("absent: no view shows the person") for p in problems)

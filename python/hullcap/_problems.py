@@ -20,7 +20,11 @@ from tqdm import tqdm
 from hullcap._files import atomic_write, read_document
 from hullcap.errors import ResultsError
 
-__all__ = ["Problem", "ProblemLog"]
+__all__ = ["Problem", "ProblemLog", "ABSENT"]
+
+ABSENT = "absent: no view shows the person"
+"""How a frame in which the person is in no view begins its problem (the person left the
+capture volume: a state of the take, not a fault of the run)."""
 
 
 @dataclass(frozen=True)
@@ -89,8 +93,12 @@ class ProblemLog:
         """One line: how many views were left out in how many frames, the first few."""
         is_view = [p.camera is not None and p.frame is not None for p in self.items]
         views = [p for p, v in zip(self.items, is_view) if v]
-        other = [p for p, v in zip(self.items, is_view) if not v]
+        absent = [p.frame for p, v in zip(self.items, is_view) if not v and p.what.startswith(ABSENT)]
+        other = [p for p, v in zip(self.items, is_view) if not v and not p.what.startswith(ABSENT)]
         parts = []
+        if absent:
+            parts.append(f"{len(absent)} frame{'s' * (len(absent) != 1)} without the person in any view: "
+                         + _runs(absent))
         if views:
             left_out = {(p.frame, p.camera) for p in views}  # a view may have more than one problem
             frames = len({frame for frame, _ in left_out})
@@ -123,6 +131,17 @@ class ProblemLog:
             return [_problem(p) for p in entries]
         except (KeyError, TypeError) as e:
             raise ResultsError(f"{path}: not a problems.json ({e!r})") from None
+
+
+def _runs(frames: list[int]) -> str:
+    """Frames as runs: ``10–14, 20``."""
+    runs: list[list[int]] = []
+    for f in sorted(set(frames)):
+        if runs and f == runs[-1][1] + 1:
+            runs[-1][1] = f
+        else:
+            runs.append([f, f])
+    return ", ".join(f"{a}–{b}" if b > a else f"{a}" for a, b in runs)
 
 
 def _problem(entry) -> Problem:

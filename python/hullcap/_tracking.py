@@ -47,7 +47,7 @@ from hullcap._files import NPZ_ERRORS, atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
 from hullcap._guided import GuidedSegmenter, dilated
 from hullcap._hull import HullReport, capture_volume, check_bounds, doubtful_vertices, visual_hull
-from hullcap._problems import ProblemLog
+from hullcap._problems import ABSENT, ProblemLog
 from hullcap._progress import progress
 from hullcap._render import render_silhouette
 from hullcap._run_folder import check_room, check_writable, clear
@@ -302,7 +302,7 @@ class Tracker:
         if all((frame, cam.name) in self._broken for cam in self.sequence.cameras):
             raise HullError("no usable view: every camera's was left out")
         if not any(m.any() for m in masks):
-            raise PersonAbsent("absent: no view shows the person (every mask is empty)")
+            raise PersonAbsent(f"{ABSENT} (every mask is empty)")
         t0 = time.perf_counter()
         report = HullReport()
         priors = None if silhouettes is None or tolerance == 0 else \
