@@ -10,7 +10,7 @@ import pytest
 from hullcap import Sequence, Tracker
 from hullcap._cameras import Cameras, look_at
 from hullcap._cli import main
-from hullcap._hull import capture_volume
+from hullcap._cameras import capture_volume
 from hullcap._synth import synthesize
 from hullcap.errors import CalibrationError, HullError
 

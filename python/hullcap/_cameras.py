@@ -20,9 +20,10 @@ import cv2
 import numpy as np
 
 from hullcap._files import atomic_write, read_document
-from hullcap.errors import CalibrationError
+from hullcap.errors import CalibrationError, HullError
 
-__all__ = ["Camera", "Cameras", "ring", "parse_size", "check_principal_point"]
+__all__ = ["Camera", "Cameras", "ring", "parse_size", "check_principal_point", "capture_volume", "axes_meeting_point",
+           "check_bounds", "format_bounds"]
 
 ROTATION_TOLERANCE = 1e-3
 """Largest |RRᵀ − I| accepted for a camera's rotation: calibration files round (5 decimals
@@ -543,3 +544,72 @@ def ring(n: int, radius: float = 4.0, height: float = 1.6, target=(0.0, 0.0, 1.0
         R, t = look_at((radius * np.sin(a), -radius * np.cos(a), z), target)
         cams.append(Camera(f"{prefix}{i}", width, height_px, K, np.zeros(5), R, t))
     return Cameras(cams)
+
+
+# -- the rig's geometry: where the cameras look, the volume every one of them sees ----------
+
+def check_bounds(bounds) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)`` as float arrays from ``((x0, y0, z0), (x1, y1, z1))`` or six numbers,
+    checked: finite, lo < hi on every axis."""
+    try:
+        b = np.asarray(bounds, float).reshape(2, 3)
+    except (TypeError, ValueError):
+        raise HullError(f"bounds must be (x0, y0, z0), (x1, y1, z1) in metres, got {bounds!r}") from None
+    if not np.isfinite(b).all() or not (b[0] < b[1]).all():
+        raise HullError(f"bounds must be finite with x0 < x1, y0 < y1, z0 < z1, got {b.tolist()}")
+    return b[0].copy(), b[1].copy()
+
+
+def format_bounds(bounds) -> str:
+    """``(x0, y0, z0)–(x1, y1, z1) m`` to the centimetre."""
+    lo, hi = bounds
+    return "({:.2f}, {:.2f}, {:.2f})–({:.2f}, {:.2f}, {:.2f}) m".format(*lo, *hi)
+
+
+def capture_volume(cameras: Cameras, floor: float = 0.0, ceiling: float = 2.4, step: float = 0.05):
+    """``(lo, hi)``: the bounding box of the points between `floor` and `ceiling` that
+    every camera sees, to within `step` metres; computed once per set of cameras.
+
+    The search starts where the cameras' optical axes pass closest to each other (the
+    least-squares meeting point, where a rig is aimed), over a square reaching the
+    furthest camera, first every 4 `step` and then every `step` around what that found:
+    a rig on one side of a room sees a volume its camera centres do not surround."""
+    lo, hi = cameras.derived(("capture_volume", floor, ceiling, step),
+                             lambda: _capture_volume(cameras, floor, ceiling, step))
+    return lo.copy(), hi.copy()
+
+
+def axes_meeting_point(cameras: Cameras) -> np.ndarray:
+    """(3,) the point nearest to every camera's optical axis (least squares)."""
+    A, b = np.zeros((3, 3)), np.zeros(3)
+    for cam in cameras:
+        d = cam.R[2]  # the optical axis in the world
+        P = np.eye(3) - np.outer(d, d)
+        A += P
+        b += P @ cam.centre
+    return np.linalg.lstsq(A, b, rcond=None)[0]
+
+
+def _capture_volume(cameras, floor, ceiling, step):
+    centres = np.array([c.centre for c in cameras])
+    mid = axes_meeting_point(cameras)[:2]
+    if len(cameras) < 2 or not np.isfinite(mid).all():
+        mid = centres[:, :2].mean(0)
+    span = np.linalg.norm(centres[:, :2] - mid, axis=1).max() + step
+    lo, hi = np.array([*(mid - span), floor]), np.array([*(mid + span), ceiling])
+    for s in (4 * step, step):
+        lo[2], hi[2] = max(lo[2], floor), min(hi[2], ceiling)
+        axes = [np.arange(lo[k], hi[k] + s / 2, s) for k in range(3)]
+        pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+        seen = np.ones(len(pts), bool)
+        for cam in cameras:
+            px, z = cam.project(pts[seen])
+            inside = (z > 0) & (px[:, 0] >= 0) & (px[:, 0] <= cam.width - 1) & (px[:, 1] >= 0) & \
+                (px[:, 1] <= cam.height - 1)
+            seen[np.flatnonzero(seen)[~inside]] = False
+        if not seen.any():
+            raise CalibrationError(f"the cameras see no common volume between the floor (z = {floor} m) and "
+                                   f"z = {ceiling} m; give the capture volume (bounds)")
+        p = pts[seen]
+        lo, hi = p.min(0) - s, p.max(0) + s
+    return lo, hi

@@ -22,15 +22,14 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from hullcap._cameras import Cameras
+from hullcap._cameras import Cameras, capture_volume, check_bounds, format_bounds
 from hullcap._engine import carve, doubtful_points, gaussian_blur, isosurface
 from hullcap._mesh import Surface
 from hullcap._silhouette import distance_outside, signed_distance
 from hullcap._threads import over_views
-from hullcap.errors import CalibrationError, HullError
+from hullcap.errors import HullError
 
-__all__ = ["visual_hull", "doubtful_vertices", "capture_volume", "axes_meeting_point", "check_bounds", "format_bounds",
-           "HullReport"]
+__all__ = ["visual_hull", "doubtful_vertices", "HullReport"]
 
 
 @dataclass
@@ -207,70 +206,3 @@ def _mesh(occupancy, origin, h, smooth) -> Surface:
     # from outside and its normals point outwards.
     vertices, faces, normals = isosurface(field, 0.5)
     return Surface(vertices * h + (origin + 0.5 * h), faces, normals)
-
-
-def check_bounds(bounds) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo, hi)`` as float arrays from ``((x0, y0, z0), (x1, y1, z1))`` or six numbers,
-    checked: finite, lo < hi on every axis."""
-    try:
-        b = np.asarray(bounds, float).reshape(2, 3)
-    except (TypeError, ValueError):
-        raise HullError(f"bounds must be (x0, y0, z0), (x1, y1, z1) in metres, got {bounds!r}") from None
-    if not np.isfinite(b).all() or not (b[0] < b[1]).all():
-        raise HullError(f"bounds must be finite with x0 < x1, y0 < y1, z0 < z1, got {b.tolist()}")
-    return b[0].copy(), b[1].copy()
-
-
-def format_bounds(bounds) -> str:
-    """``(x0, y0, z0)–(x1, y1, z1) m`` to the centimetre."""
-    lo, hi = bounds
-    return "({:.2f}, {:.2f}, {:.2f})–({:.2f}, {:.2f}, {:.2f}) m".format(*lo, *hi)
-
-
-def capture_volume(cameras: Cameras, floor: float = 0.0, ceiling: float = 2.4, step: float = 0.05):
-    """``(lo, hi)``: the bounding box of the points between `floor` and `ceiling` that
-    every camera sees, to within `step` metres; computed once per set of cameras.
-
-    The search starts where the cameras' optical axes pass closest to each other (the
-    least-squares meeting point, where a rig is aimed), over a square reaching the
-    furthest camera, first every 4 `step` and then every `step` around what that found:
-    a rig on one side of a room sees a volume its camera centres do not surround."""
-    lo, hi = cameras.derived(("capture_volume", floor, ceiling, step),
-                             lambda: _capture_volume(cameras, floor, ceiling, step))
-    return lo.copy(), hi.copy()
-
-
-def axes_meeting_point(cameras: Cameras) -> np.ndarray:
-    """(3,) the point nearest to every camera's optical axis (least squares)."""
-    A, b = np.zeros((3, 3)), np.zeros(3)
-    for cam in cameras:
-        d = cam.R[2]  # the optical axis in the world
-        P = np.eye(3) - np.outer(d, d)
-        A += P
-        b += P @ cam.centre
-    return np.linalg.lstsq(A, b, rcond=None)[0]
-
-
-def _capture_volume(cameras, floor, ceiling, step):
-    centres = np.array([c.centre for c in cameras])
-    mid = axes_meeting_point(cameras)[:2]
-    if len(cameras) < 2 or not np.isfinite(mid).all():
-        mid = centres[:, :2].mean(0)
-    span = np.linalg.norm(centres[:, :2] - mid, axis=1).max() + step
-    lo, hi = np.array([*(mid - span), floor]), np.array([*(mid + span), ceiling])
-    for s in (4 * step, step):
-        lo[2], hi[2] = max(lo[2], floor), min(hi[2], ceiling)
-        axes = [np.arange(lo[k], hi[k] + s / 2, s) for k in range(3)]
-        pts = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
-        seen = np.ones(len(pts), bool)
-        for cam in cameras:
-            px, z = cam.project(pts[seen])
-            inside = (z > 0) & (px[:, 0] >= 0) & (px[:, 0] <= cam.width - 1) & (px[:, 1] >= 0) & \
-                (px[:, 1] <= cam.height - 1)
-            seen[np.flatnonzero(seen)[~inside]] = False
-        if not seen.any():
-            raise CalibrationError(f"the cameras see no common volume between the floor (z = {floor} m) and "
-                                   f"z = {ceiling} m; give the capture volume (bounds)")
-        p = pts[seen]
-        lo, hi = p.min(0) - s, p.max(0) + s
-    return lo, hi

@@ -1,7 +1,7 @@
 """A camera rig at a glance, and calibrations imported from other tools (``hullcap calib``).
 
 :func:`describe` lists each camera's centre, viewing direction, image size and focal
-length and the capture volume every camera sees (:func:`hullcap._hull.capture_volume`);
+length and the capture volume every camera sees (:func:`hullcap._cameras.capture_volume`);
 :func:`draw_top_view` draws the rig from above with that volume, so that a rig aimed away
 from where the person stands shows at once. :func:`import_calibration` reads EasyMocap,
 Pose2Sim or plain OpenCV files into :class:`~hullcap._cameras.Cameras`, taking image sizes
@@ -17,7 +17,7 @@ import numpy as np
 
 from hullcap._cameras import Cameras
 from hullcap._files import atomic_write
-from hullcap._hull import axes_meeting_point, capture_volume, format_bounds
+from hullcap._cameras import axes_meeting_point, capture_volume, format_bounds
 from hullcap._sequence import VIDEO_SUFFIXES, first_frame
 from hullcap.errors import CalibrationError, SequenceError
 

@@ -146,7 +146,7 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     track`` does; `model` is a body model folder of the same subject (``None``: build one).
     `say` gets the lines the command prints, `warn` its warnings."""
     from hullcap._body import BodyModel
-    from hullcap._hull import axes_meeting_point, format_bounds
+    from hullcap._cameras import axes_meeting_point, format_bounds
     from hullcap._results import RECOVERED
     from hullcap._rig import MIN_SURROUND, surround
     from hullcap._sequence import Sequence

@@ -46,7 +46,8 @@ from hullcap._body import BodyModel
 from hullcap._files import NPZ_ERRORS, atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
 from hullcap._guided import GuidedSegmenter, dilated
-from hullcap._hull import HullReport, capture_volume, check_bounds, doubtful_vertices, visual_hull
+from hullcap._cameras import capture_volume, check_bounds
+from hullcap._hull import HullReport, doubtful_vertices, visual_hull
 from hullcap._problems import ABSENT, ProblemLog
 from hullcap._progress import progress
 from hullcap._render import render_silhouette
