@@ -35,7 +35,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
 from hullcap._fitting import PoseParameters, fit, make_target, quality  # noqa: E402
-from hullcap._results import load_result  # noqa: E402
+from hullcap.export import load_result  # noqa: E402
 from hullcap._sequence import Sequence  # noqa: E402
 from hullcap._subject import with_hands  # noqa: E402
 from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402

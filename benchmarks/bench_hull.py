@@ -78,7 +78,7 @@ def devset_table(names, step: int) -> None:
     import devset
     from hullcap._guided import GuidedOptions, GuidedSegmenter
     from hullcap._render import render_silhouette
-    from hullcap._results import load_result
+    from hullcap.export import load_result
 
     where = devset.find()
     if where is None:

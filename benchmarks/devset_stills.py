@@ -20,7 +20,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
-from hullcap._results import load_result  # noqa: E402
+from hullcap.export import load_result  # noqa: E402
 from hullcap._sequence import Sequence  # noqa: E402
 from hullcap.export._overlay import draw_overlay  # noqa: E402
 

@@ -10,7 +10,8 @@ import pytest
 from hullcap import BodyModel
 from hullcap._cli import main
 from hullcap._compare import compare
-from hullcap._results import TrackingResult, load_result, write_outputs
+from hullcap._results import TrackingResult
+from hullcap.export import load_result, write_outputs
 from hullcap.errors import ResultsError
 from hullcap.export import read_trc, write_trc
 

@@ -149,7 +149,7 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
     assert main(["export", str(tmp_path / "nothing"), "--format", "bvh"]) == 2
     assert "no pose.npz: not the results folder" in capsys.readouterr().err
     # Each frame keeps the bar its fit was judged by, a quality short of the fit's own.
-    from hullcap._results import load_result
+    from hullcap.export import load_result
     from hullcap.export import write_report
 
     result = load_result(tmp_path / "out")

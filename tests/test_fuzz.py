@@ -24,7 +24,7 @@ from hullcap import BodyModel
 from hullcap._cameras import Cameras, ring
 from hullcap._links import LinkModel
 from hullcap._problems import ProblemLog
-from hullcap._results import load_result
+from hullcap.export import load_result
 from hullcap._sequence import Sequence
 from hullcap.errors import HullcapError
 from hullcap.export import angle_table, read_mot, read_trc, write_mot, write_trc

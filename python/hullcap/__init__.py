@@ -20,7 +20,8 @@ from hullcap._hull import HullReport, visual_hull
 from hullcap._links import LinkModel
 from hullcap._mesh import Surface, read_mesh, write_mesh
 from hullcap._reacquire import SearchOptions
-from hullcap._results import TrackingResult, load_result, smooth_joints
+from hullcap._results import TrackingResult, smooth_joints
+from hullcap.export import load_result
 from hullcap._sequence import Sequence
 from hullcap._shape import ShapeBasis
 from hullcap._silhouette import background_model

@@ -85,7 +85,8 @@ def _demo(args) -> int:
 
 
 def _export(args) -> int:
-    from hullcap._results import load_result, smooth_joints, write_joints_csv
+    from hullcap._results import smooth_joints
+    from hullcap.export import load_result, write_joints_csv
     from hullcap.export import angle_table, write_angles_csv, write_bvh, write_c3d, write_glb, write_mot, write_trc
 
     result = load_result(args.out)

@@ -294,7 +294,7 @@ def reference_joints(path, up: str = "y") -> tuple[list[str], np.ndarray, np.nda
     truth (:func:`~hullcap._evaluate.read_truth_joints`, at its ``meta.json``'s rate)."""
     from hullcap._evaluate import TRUTHS, read_truth_joints
     from hullcap._files import read_document
-    from hullcap._results import load_result
+    from hullcap.export import load_result
     from hullcap.export import read_c3d, read_trc
 
     path = Path(path)
@@ -324,7 +324,7 @@ def compare_run(out, reference, names=None, shift: float | str = 0.0, up: str = 
                 align: bool = False) -> Comparison:
     """:func:`compare` a finished run's results folder `out` with the `reference` of
     :func:`reference_joints`; `names` a mapping or a JSON file of one (ours → theirs)."""
-    from hullcap._results import load_result
+    from hullcap.export import load_result
 
     result = load_result(out)
     if names is not None and not isinstance(names, dict):

@@ -1,6 +1,5 @@
-"""A run's results: per-frame poses, joints and fit quality, and the files they are
-written to and read from (docs/formats.md): ``joints.csv``, ``pose.npz``, ``motion.bvh``,
-``model.glb``.
+"""A run's results: per-frame poses, joints and fit quality (the files they are written to
+and read from are :mod:`hullcap.export`'s).
 
 Every frame has a status: ``good`` (the fit explains the hull as well as the recent
 frames did), ``recovered`` (it did after a search from the hull itself), or ``failed``.
@@ -12,21 +11,16 @@ the raw results are always kept.
 
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 
 import numpy as np
 
 from hullcap._body import BodyModel
-from hullcap._files import atomic_write, read_npz
 from hullcap._fitting import FitResult, PoseParameters
 from hullcap.errors import OptionsError, ResultsError
-from hullcap.export._bvh import write_bvh
-from hullcap.export._gltf import write_glb
 
-__all__ = ["GOOD", "RECOVERED", "FAILED", "INTERPOLATED", "STATUS_NAMES", "TrackingResult", "write_outputs",
-           "write_joints_csv", "load_result", "smooth_joints"]
+__all__ = ["GOOD", "RECOVERED", "FAILED", "INTERPOLATED", "STATUS_NAMES", "TrackingResult", "smooth_joints",
+           "check_cutoff"]
 
 GOOD, RECOVERED, FAILED, INTERPOLATED = 0, 1, 2, 3
 STATUS_NAMES = ("good", "recovered", "failed", "interpolated")
@@ -261,65 +255,3 @@ def smooth_joints(joints: np.ndarray, fps: float, cutoff_hz: float, order: int =
         if stop - start > 3 * (order + 1):
             out[start:stop] = filtfilt(b, a, joints[start:stop], axis=0)
     return out
-
-
-def write_outputs(out, result: TrackingResult, interpolate: bool = False, smooth_hz: float | None = None) -> list[str]:
-    """Write ``joints.csv``, ``pose.npz``, ``motion.bvh`` and ``model.glb`` (these two
-    when a frame has a pose), each atomically; with `interpolate`, failed frames between
-    fitted ones are filled in the outputs (``pose.npz`` keeps the raw poses and says
-    which); with `smooth_hz`, also ``joints_smooth.csv`` (see :func:`smooth_joints`).
-    Returns the names written."""
-    out = Path(out)
-    shown = result.interpolated() if interpolate else result
-    write_joints_csv(out / "joints.csv", shown)
-    written = ["joints.csv"]
-    if smooth_hz:
-        write_joints_csv(out / "joints_smooth.csv", replace(shown, joints=smooth_joints(shown.joints, result.fps,
-                                                                                         smooth_hz)))
-        written.append("joints_smooth.csv")
-    buf = io.BytesIO()
-    arrays = result.arrays()
-    arrays.pop("joints")
-    if interpolate:
-        arrays["interpolated"] = shown.status == INTERPOLATED
-    np.savez(buf, **arrays)
-    atomic_write(out / "pose.npz", buf.getvalue())
-    written.append("pose.npz")
-    if (~shown.failed).any():
-        motion = (shown.model, shown.root_translation, shown.root_rotation, shown.theta, shown.fps)
-        write_bvh(out / "motion.bvh", *motion)
-        write_glb(out / "model.glb", *motion)
-        written += ["motion.bvh", "model.glb"]
-    return written
-
-
-def write_joints_csv(path, result: TrackingResult) -> None:
-    """``joints.csv``: one row per frame with a pose and joint, with its status."""
-    lines = ["frame,time,joint,x,y,z,status"]
-    names = result.model.joint_names
-    for f in np.flatnonzero(~result.failed):
-        t = f / result.fps
-        status = STATUS_NAMES[result.status[f]]
-        for name, (x, y, z) in zip(names, result.joints[f]):
-            lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f},{status}")
-    atomic_write(Path(path), ("\n".join(lines) + "\n").encode())
-
-
-def load_result(out) -> TrackingResult:
-    """A finished run's results from its folder (``pose.npz`` and ``model/``)."""
-    out = Path(out)
-    path = out / "pose.npz"
-    if not path.is_file():
-        raise ResultsError(f"{out}: no pose.npz: not the results folder of a finished `hullcap track` run")
-    try:
-        a = read_npz(path, ResultsError, "readable pose.npz")
-    except ResultsError as e:
-        raise ResultsError(f"{e}; track the sequence again (hullcap track --restart) to rewrite it") from None
-    model = BodyModel.load(out / "model")
-    missing = {"root_translation", "root_rotation", "theta", "failed", "iterations", "fps"} - a.keys()
-    if missing:
-        raise ResultsError(f"{path}: missing {sorted(missing)}")
-    try:
-        return TrackingResult.from_arrays(model, a)
-    except ResultsError as e:
-        raise ResultsError(f"{path}: {e}") from None

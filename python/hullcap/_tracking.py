@@ -43,16 +43,16 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._body import BodyModel
+from hullcap._cameras import capture_volume, check_bounds
 from hullcap._files import NPZ_ERRORS, atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
 from hullcap._guided import GuidedSegmenter, dilated
-from hullcap._cameras import capture_volume, check_bounds
 from hullcap._hull import HullReport, doubtful_vertices, visual_hull
 from hullcap._problems import ABSENT, ProblemLog
 from hullcap._progress import progress
 from hullcap._render import render_silhouette
 from hullcap._run_folder import check_room, check_writable, clear
-from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff, write_outputs
+from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff
 from hullcap._sequence import MIN_CAMERAS, Sequence
 from hullcap._silhouette import background_model
 from hullcap._subject import bent_frames, build_subject, fitted_surface, place_model, search_centres, with_hands
@@ -60,6 +60,7 @@ from hullcap._threads import ReadAhead, over_fits, over_views
 from hullcap._tracking_options import TrackerOptions, settings
 from hullcap._tracking_state import TrackingState
 from hullcap.errors import HullError, OptionsError, ResultsError, SequenceError, TrackingError, ViewError
+from hullcap.export import write_outputs, write_overlays, write_report
 
 __all__ = ["Tracker", "TrackerOptions"]
 
@@ -338,11 +339,9 @@ class Tracker:
             interpolate: bool = False, smooth_hz: float | None = None, overlays: bool = False) -> TrackingResult:
         """Track the sequence into folder `out` (see the module documentation): the results,
         ``report.png``, ``problems.json`` and, with `overlays`, ``overlay/<cam>.mp4``.
-        `interpolate` and `smooth_hz` go to :func:`hullcap._results.write_outputs`. The
+        `interpolate` and `smooth_hz` go to :func:`hullcap.export.write_outputs`. The
         checkpoint stays until every output is written, so an interruption at any point
         resumes without tracking again what was tracked."""
-        from hullcap.export import write_overlays, write_report
-
         if frames is not None and frames < 1:
             raise OptionsError(f"frames must be at least 1, got {frames}")
         if smooth_hz is not None:

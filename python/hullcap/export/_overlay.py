@@ -12,6 +12,7 @@ import numpy as np
 from hullcap._files import publish
 from hullcap._progress import progress
 from hullcap._render import render_silhouette
+from hullcap._results import FAILED, LIMIT_SIDES, RECOVERED
 from hullcap.errors import ViewError
 
 __all__ = ["write_overlays", "write_report", "BONES"]
@@ -121,7 +122,6 @@ def write_report(path, result, truth_joints=None) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from hullcap._results import FAILED, RECOVERED
 
     t = np.arange(len(result.status)) / result.fps
     at_limits = result.at_limits()
@@ -176,7 +176,6 @@ REPORT_LIMIT_ROWS = 12
 def _plot_limits_held(ax, t, dof_names, at_limits, held) -> None:
     """One row per angle of `held` (:meth:`~hullcap._results.TrackingResult.limits_held`)
     with a mark at each frame where `at_limits` (its :meth:`at_limits`) has it at that limit."""
-    from hullcap._results import LIMIT_SIDES
 
     dofs = list(dof_names)
     for row, (name, side, _) in enumerate(held):
