@@ -77,6 +77,8 @@ def test_engine_errors_arrive_as_their_kind():
         coverage(triangle, [[0, 1, 3]], 10, 10)
     with pytest.raises(errors.ArrayError, match="width"):
         coverage(triangle, [[0, 1, 2]], 0, 10)
+    with pytest.raises(errors.RasterError, match="image size 20000×10 is not allowed"):
+        coverage(triangle, [[0, 1, 2]], 20000, 10)
 
 
 def test_counts_out_of_all_reason_are_refused_not_a_crash():

@@ -1120,7 +1120,7 @@ def test_the_guided_log_odds_are_numpys_sum_to_the_bit(bins, rng):
     and split by sign, the prior's ramp, the colours' clipped log-ratio) to the bit, over
     a window of the view; a window or an array that does not fit is refused by name."""
     from hullcap._engine import guided_logit
-    from hullcap.errors import ModelError
+    from hullcap.errors import RasterError
 
     evidence = rng.normal(0, 4, (30, 40)).astype(np.float32)  # beyond both bounds
     image = rng.integers(0, 256, (30, 40, 3), dtype=np.uint8)
@@ -1136,11 +1136,11 @@ def test_the_guided_log_odds_are_numpys_sum_to_the_bit(bins, rng):
         got = guided_logit(evidence, image, (6, 10), ramp, weights, colours)
         assert got.dtype == np.float32 and got.shape == (20, 25)
         assert np.array_equal(got.view(np.uint32), want.astype(np.float32).view(np.uint32))
-    with pytest.raises(ModelError, match="do not lie in a 40×30 image"):
+    with pytest.raises(RasterError, match="do not lie in a 40×30 image"):
         guided_logit(evidence, image, (11, 10), ramp, weights)
-    with pytest.raises(ModelError, match=f"colour table of {bins**3 + 1} values"):
+    with pytest.raises(RasterError, match=f"colour table of {bins**3 + 1} values"):
         guided_logit(evidence, image, (6, 10), ramp, weights, (np.append(table, 0.0), bins))
-    with pytest.raises(ModelError, match="not in order"):
+    with pytest.raises(RasterError, match="not in order"):
         guided_logit(evidence, image, (6, 10), ramp, (1.0, -1.0, 0.3, 2.0, 1.0, 4.0))
     with pytest.raises(ArrayError, match="image has the shape"):
         guided_logit(evidence, image[:, :, :1], (6, 10), ramp, weights)

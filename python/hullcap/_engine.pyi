@@ -1,7 +1,8 @@
 """Type stubs of the Rust extension module ``hullcap._engine``.
 
 Errors: bad input raises the class of its kind from :mod:`hullcap.errors` (``FitError``
-for targets, trees and fits, ``ModelError`` for meshes, rigs and shapes, ``OptionsError``
+for targets, trees and fits, ``ModelError`` for meshes, rigs and shapes, ``RasterError``
+for the image and voxel kernels' images and grids, ``OptionsError``
 for ``FitOptions``, ``ArrayError`` for an argument array of the wrong dtype or shape or a
 count out of range; each a ``ValueError``), and a fault of the engine itself
 ``EngineError``."""
@@ -530,7 +531,7 @@ def guided_logit(
 
     Raises:
         ArrayError: an array of the wrong type or shape.
-        ModelError: the window does not lie in the image, the table does not hold bins³
+        RasterError: the window does not lie in the image, the table does not hold bins³
             values, or the bounds are NaN or out of order.
     """
 

@@ -5,14 +5,15 @@ Every one derives from :class:`HullcapError`, and from ``ValueError`` when the f
 in what was given (a file, an array, an option), so ``except ValueError`` keeps working.
 Messages name the file, camera, frame or array at fault. Errors of the engine arrive as
 the class of their kind (an argument it cannot take as :class:`ArrayError`, a bad mesh or
-link model as :class:`ModelError`, a bad target or fit input as :class:`FitError`), and
+link model as :class:`ModelError`, an image or voxel grid its image kernels cannot take as
+:class:`RasterError`, a bad target or fit input as :class:`FitError`), and
 an engine bug — a panic, caught before it can cross into Python — as :class:`EngineError`.
 """
 
 from __future__ import annotations
 
 __all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ViewError", "ModelError",
-           "HullError", "FitError", "ArrayError", "TrackingError", "ResultsError", "SessionError", "EngineError"]
+           "HullError", "RasterError", "FitError", "ArrayError", "TrackingError", "ResultsError", "SessionError", "EngineError"]
 
 
 class HullcapError(Exception):
@@ -56,6 +57,12 @@ class ModelError(HullcapError, ValueError):
 
 class HullError(HullcapError, ValueError):
     """Silhouettes that carve no visual hull."""
+
+
+class RasterError(HullcapError, ValueError):
+    """An image, mesh or voxel grid the engine's image kernels cannot take: a face naming a
+    vertex that does not exist, an image size out of range, a grid whose values do not
+    fill its shape."""
 
 
 class FitError(HullcapError, ValueError):

@@ -4,7 +4,7 @@
 use hullcap_body::BodyError;
 use hullcap_icp::IcpError;
 use hullcap_kdtree::KdTreeError;
-use hullcap_raster::RasterError;
+use hullcap_raster::RasterError as EngineRasterError;
 use pyo3::prelude::*;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 
@@ -14,6 +14,7 @@ pyo3::import_exception!(hullcap.errors, FitError);
 pyo3::import_exception!(hullcap.errors, EngineError);
 pyo3::import_exception!(hullcap.errors, OptionsError);
 pyo3::import_exception!(hullcap.errors, ArrayError);
+pyo3::import_exception!(hullcap.errors, RasterError);
 
 /// An engine error and the Python exception class it becomes.
 pub(crate) trait IntoPyErr {
@@ -40,7 +41,7 @@ macro_rules! input_or_engine_errors {
 input_or_engine_errors! {
     KdTreeError => FitError, KdTreeError::Worker(_),
     BodyError => ModelError, BodyError::Worker(_),
-    RasterError => ModelError, RasterError::Panicked(_),
+    EngineRasterError => RasterError, EngineRasterError::Panicked(_),
     IcpError => FitError,
         IcpError::Worker(_) | IcpError::Body(BodyError::Worker(_)) | IcpError::Target(KdTreeError::Worker(_)),
 }
