@@ -157,3 +157,17 @@ def test_the_python_calls_take_what_a_user_passes_first(tmp_path):
         hullcap.build_subject(Surface(np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros((0, 3))))
     with pytest.raises(errors.FitError, match="hull 0 is not finite"):
         hullcap.build_subject(Surface(np.full((4, 3), np.nan), np.zeros((0, 3), np.int64), np.ones((4, 3))))
+
+
+def test_the_engine_stub_names_every_public_function_of_the_engine():
+    """``_engine.pyi``'s ``__all__`` is the extension's public names, no more, no less."""
+    import ast
+    from pathlib import Path
+
+    import hullcap._engine as engine
+
+    stub = ast.parse((Path(hullcap.__file__).parent / "_engine.pyi").read_text())
+    (listed,) = [node.value for node in stub.body if isinstance(node, ast.Assign)
+                 and getattr(node.targets[0], "id", None) == "__all__"]
+    named = {element.value for element in listed.elts} - {"__version__"}
+    assert named == {name for name in dir(engine) if not name.startswith("_")}

@@ -13,7 +13,9 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["__version__", "NormalKDTree", "skin_weights", "link_distances", "link_tree_problem", "Rig", "rasterize",
-           "coverage", "FitOptions", "Target", "fit", "Shape", "fit_shape", "evaluate", "threads"]
+           "coverage", "FitOptions", "Target", "fit", "Shape", "fit_shape", "evaluate", "threads", "classify_cells",
+           "carve", "doubtful_points", "background_evidence", "background_distortions", "guided_logit",
+           "gaussian_blur", "isosurface"]
 
 __version__: str
 
@@ -445,9 +447,14 @@ def carve(
         1 × 1 × 1 empty occupancy at index (0, 0, 0).
     """
 
+DoubtView = tuple[npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike, npt.ArrayLike | None]
+"""One camera's view as :func:`doubtful_points` reads it: ``(K, dist, R, t, mask, unsure)``,
+the (H, W) mask (> 0 subject) and where its verdict of background was not sure (None: sure
+everywhere)."""
+
 def doubtful_points(
     points: ArrayLike3,
-    views: list[tuple[object, object, object, object, npt.ArrayLike, npt.ArrayLike | None]],
+    views: list[DoubtView],
     min_views: int,
     threads: int | None = None,
 ) -> npt.NDArray[np.bool_]:

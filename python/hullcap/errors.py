@@ -13,7 +13,8 @@ an engine bug — a panic, caught before it can cross into Python — as :class:
 from __future__ import annotations
 
 __all__ = ["HullcapError", "OptionsError", "CalibrationError", "SequenceError", "ViewError", "ModelError",
-           "HullError", "RasterError", "FitError", "ArrayError", "TrackingError", "ResultsError", "SessionError", "EngineError"]
+           "HullError", "RasterError", "FitError", "ArrayError", "TrackingError", "ResultsError", "SessionError",
+           "EngineError"]
 
 
 class HullcapError(Exception):
