@@ -125,21 +125,21 @@ def test_a_camera_whose_images_all_have_another_size_is_refused_at_start(clean, 
 
 
 def test_an_interruption_while_writing_overlays_resumes_without_tracking_again(clean, tmp_path, monkeypatch):
-    import hullcap.export as export
+    import hullcap._tracking as tracking
 
     seq = Sequence(clean)
     out = tmp_path / "out"
-    real = export.write_overlays
+    real = tracking.write_overlays
 
     def interrupted(out_, sequence, result, show_progress=True, still=None):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(export, "write_overlays", interrupted)
+    monkeypatch.setattr(tracking, "write_overlays", interrupted)
     with pytest.raises(KeyboardInterrupt):
         Tracker(seq, options=FAST).run(out, show_progress=False, overlays=True)
     assert (out / ".checkpoint.npz").is_file() and (out / "pose.npz").is_file()
     first = (out / "joints.csv").read_bytes()
-    monkeypatch.setattr(export, "write_overlays", real)
+    monkeypatch.setattr(tracking, "write_overlays", real)
     tracked = []
     monkeypatch.setattr(Tracker, "_track", lambda self, *a: tracked.append(a))
     again = Tracker(seq, options=FAST)
@@ -208,7 +208,7 @@ def test_bad_run_options_are_refused_before_anything_is_tracked(clean, tmp_path)
 
 
 def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch, capsys):
-    import hullcap.export as export
+    import hullcap._tracking as tracking
 
     seq = copy(clean, tmp_path)
     shutil.rmtree(seq / "frames" / "cam2")
@@ -237,7 +237,7 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
     assert "silhouettes/<cam>/ track better with few views" in captured.err
     assert sorted(p.stem for p in (out / "overlay").glob("*.mp4")) == five.cameras.names
     # A run resumes only with the cameras it was tracked with.
-    monkeypatch.setattr(export, "write_overlays", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
+    monkeypatch.setattr(tracking, "write_overlays", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
     with pytest.raises(KeyboardInterrupt):
         Tracker(five, options=FAST).run(out, resume=False, show_progress=False, frames=2, overlays=True)
     four = Sequence(seq, leave_out=["cam2", "cam3"])
