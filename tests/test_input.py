@@ -999,8 +999,8 @@ def test_the_guided_band_widens_with_the_time_between_frames(tmp_path):
     # with the outer band widened by 30 / 12.
     seq = synthesize(tmp_path / "seq", "squat", 4, fps=12.0, frames=2, width=160, height=120, show_progress=False)
     tracker = Tracker(Sequence(seq))
-    assert tracker._guidance.outer == pytest.approx(2.5 * options.band)
-    assert all(s.options is tracker._guidance for s in tracker._segmenters())
+    assert tracker.segmenter.guidance.outer == pytest.approx(2.5 * options.band)
+    assert all(s.options is tracker.segmenter.guidance for s in tracker.segmenter._segmenters())
 
 
 @pytest.mark.parametrize("scene_share", [0.0, 0.5])

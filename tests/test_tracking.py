@@ -11,7 +11,9 @@ from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, Tra
 from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._evaluate import accuracy
+from hullcap._render import model_silhouettes
 from hullcap._results import GOOD
+from hullcap._segmenter import Segmenter
 from hullcap._sequence import Sequence
 from hullcap._subject import with_hands
 from hullcap._synth import synthesize
@@ -191,15 +193,17 @@ def test_an_elbow_in_doubt_guides_the_masks_with_the_forearm_both_ways(short_seq
     """With an elbow in doubt the prediction is drawn with the forearm as predicted and
     as it was, united: the silhouettes of both poses, pixel for pixel."""
     seq, model = Sequence(short_sequence), BodyModel.template()
-    tracker = Tracker(seq)
     theta = np.zeros(model.n_dofs)
     theta[list(model.dof_names).index("l_elbow_flexion")] = np.radians(150)
     root = (np.eye(3), np.array([0.0, 0.0, model.rest_root_height]))
     folded, straight = PoseParameters(theta, *root), PoseParameters(np.zeros(model.n_dofs), *root)
-    both = tracker._silhouettes(model, folded, straight)
-    for union, a, b in zip(both, tracker._silhouettes(model, folded), tracker._silhouettes(model, straight)):
+
+    def drawn(*poses):
+        return model_silhouettes(seq.cameras, model, *poses)
+    both = drawn(folded, straight)
+    for union, a, b in zip(both, drawn(folded), drawn(straight)):
         assert np.array_equal(union, a | b)
-    assert sum((u & ~a).sum() for u, a in zip(both, tracker._silhouettes(model, folded))) > 0
+    assert sum((u & ~a).sum() for u, a in zip(both, drawn(folded))) > 0
 
 
 def test_a_real_bend_put_in_doubt_is_still_followed(short_sequence, tmp_path, monkeypatch):
@@ -363,13 +367,13 @@ def test_a_given_model_teaches_the_guided_masks_colours_as_it_goes(short_sequenc
     built = Tracker(seq, options=TrackerOptions(refine_joints=False)).run(tmp_path / "built", show_progress=False,
                                                                            frames=2)
     taught = []
-    real = Tracker.learn_colours
+    real = Segmenter.learn_colours
 
     def recording(self, frame, *args, **kwargs):
         taught.append(frame)
         return real(self, frame, *args, **kwargs)
 
-    monkeypatch.setattr(Tracker, "learn_colours", recording)
+    monkeypatch.setattr(Segmenter, "learn_colours", recording)
     options = TrackerOptions(use_silhouettes=False, calibration_seconds=0.4, calibration_frames=4)
     result = Tracker(seq, model=built.model, options=options).run(tmp_path / "given", show_progress=False,
                                                                    frames=16)

@@ -13,10 +13,24 @@ import numpy as np
 from hullcap._cameras import Camera
 from hullcap._engine import coverage, rasterize
 from hullcap._mesh import face_normals
+from hullcap._threads import over_views
 
-__all__ = ["render_depth", "render_silhouette", "shade"]
+__all__ = ["render_depth", "render_silhouette", "model_silhouettes", "shade"]
 
 SKIN = (0.82, 0.66, 0.55)
+
+
+def model_silhouettes(cameras, model, pose, also=None) -> list[np.ndarray]:
+    """`model`'s (H, W) bool silhouette at `pose` (:class:`~hullcap._fitting.PoseParameters`)
+    in every one of `cameras`, united with its silhouette at `also` when given; the views
+    drawn in parallel."""
+    faces, closed = model.faces, model.closed
+    posed = [model.pose(p.theta, p.root_rotation, p.root_translation).vertices for p in (pose, also) if p is not None]
+
+    def drawn(cam):
+        silhouettes = [render_silhouette(cam, v, faces, closed=closed) for v in posed]
+        return silhouettes[0] if len(silhouettes) == 1 else np.logical_or.reduce(silhouettes)
+    return over_views(drawn, cameras)
 
 
 def render_depth(camera: Camera, vertices, faces, threads: int | None = None):

@@ -36,8 +36,8 @@ import os
 import time
 import warnings
 from collections import defaultdict
-from contextlib import contextmanager, suppress
-from dataclasses import dataclass, replace
+from contextlib import suppress
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -46,20 +46,20 @@ from hullcap._body import BodyModel
 from hullcap._cameras import capture_volume, check_bounds
 from hullcap._files import NPZ_ERRORS, atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
-from hullcap._guided import GuidedSegmenter, dilated
+from hullcap._guided import dilated
 from hullcap._hull import HullReport, doubtful_vertices, visual_hull
 from hullcap._problems import ABSENT, ProblemLog
 from hullcap._progress import progress
-from hullcap._render import render_silhouette
+from hullcap._render import model_silhouettes
 from hullcap._run_folder import check_room, check_writable, clear
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff
+from hullcap._segmenter import Segmenter, spread
 from hullcap._sequence import MIN_CAMERAS, Sequence
-from hullcap._silhouette import background_model
 from hullcap._subject import bent_frames, build_subject, fitted_surface, place_model, search_centres, with_hands
-from hullcap._threads import ReadAhead, over_fits, over_views
+from hullcap._threads import over_fits, over_views
 from hullcap._tracking_options import TrackerOptions, settings
 from hullcap._tracking_state import TrackingState
-from hullcap.errors import HullError, OptionsError, ResultsError, SequenceError, TrackingError, ViewError
+from hullcap.errors import HullError, OptionsError, ResultsError, SequenceError, TrackingError
 from hullcap.export import write_outputs, write_overlays, write_report
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -93,24 +93,11 @@ class Tracker:
             bounds = capture_volume(sequence.cameras)
         self.bounds = check_bounds(bounds)
         """``(lo, hi)``: the capture volume the hull is carved in (metres)."""
-        self._guidance = self.options.guidance.for_frame_rate(sequence.fps)
-        self._backgrounds = None
-        self._guided = None
-        # Cameras without a usable background image, left out of every frame: name → why.
-        self._no_background: dict[str, ViewError] = {}
-        self._broken: set = set()  # (frame, camera) of views already left out
-        self._ahead: ReadAhead | None = None
-        # How many frames' colours the guided segmenters know since they last forgot, and
-        # the frames from which tracking still teaches them, in order (`_teaching_frames`).
-        self._colour_frames = 0
-        self._teach_at: list[int] = []
-        # The last frame segmented and its images (None for a view left out), which
-        # teaching reads instead of decoding them again: a video camera's reader is the
-        # read-ahead thread's meanwhile.
-        self._segmented: tuple[int, list] = (-1, [])
         self.seconds: dict = defaultdict(float)
         self.problems = ProblemLog(warn=False)
         """Frames and views left out, and why (:mod:`hullcap._problems`)."""
+        self.segmenter = Segmenter(sequence, self.options, self.problems, self.seconds)
+        """Each frame's silhouettes (:mod:`hullcap._segmenter`)."""
         self.written: list[str] = []
         """The files and folders the last :meth:`run` wrote into its folder."""
 
@@ -120,85 +107,13 @@ class Tracker:
     def given_silhouettes(self) -> bool:
         """Whether it tracks from the sequence's own silhouettes (else it subtracts the
         background)."""
-        return self.options.use_silhouettes and self.sequence.has_silhouettes
+        return self.segmenter.given
 
     def masks(self, frame: int, priors=None) -> list[np.ndarray]:
         """The silhouettes of `frame`: given, or by background subtraction, guided by the
         predicted model's silhouettes `priors` (one bool mask per view) when the options
         say so."""
-        return self._segment(frame, priors)[0]
-
-    def _segment(self, frame: int, priors=None) -> tuple[list[np.ndarray], list[np.ndarray | None]]:
-        """``(masks, unsure)``: :meth:`masks`, and for each view where its guided mask was
-        not sure of the background (:meth:`GuidedSegmenter.segment`; None for a view not
-        guided)."""
-        t0 = time.perf_counter()
-        inputs = self._ahead.take(frame) if self._ahead is not None else self._inputs(frame)
-
-        def segmented(i: int):
-            view = inputs[i]
-            return self._guided[i].segment(view.image, None if priors is None else priors[i], view.evidence)
-
-        to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
-        self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
-        segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
-        masks, unsure = [], []
-        for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
-            if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
-                self._view_left_out(frame, cam, view)
-                masks.append(np.zeros((cam.height, cam.width), np.uint8))
-            elif view.mask is not None:
-                masks.append(view.mask)
-            else:
-                masks.append(segmented_views[i][0])
-            unsure.append(segmented_views[i][1] if i in segmented_views else None)
-        self.seconds["silhouettes"] += time.perf_counter() - t0
-        return masks, unsure
-
-    def _inputs(self, frame: int) -> list[_Input | ViewError]:
-        """What each camera gives for `frame` before any prediction: the given mask, the
-        mask of the unguided background test, or the image with the guided segmenter's
-        background evidence; or the ViewError that leaves it out. Runs on the read-ahead
-        thread: it may not touch the problem log."""
-        seq = self.sequence
-        segmenters = None if self.given_silhouettes else self._segmenters()
-        inputs: list[_Input | ViewError] = []
-        for i, cam in enumerate(seq.cameras):
-            if cam.name in self._no_background:
-                inputs.append(self._no_background[cam.name])
-                continue
-            try:
-                if self.given_silhouettes:
-                    inputs.append(_Input(mask=seq.mask(frame, cam.name)))
-                    continue
-                image = seq.image(frame, cam.name)
-            except ViewError as e:
-                inputs.append(e)
-                continue
-            if segmenters is None:
-                inputs.append(_Input(mask=self._backgrounds[i].mask(image)))
-            else:
-                inputs.append(_Input(image=image, evidence=segmenters[i].background.evidence(image)))
-        return inputs
-
-    def _images(self, frame: int) -> list[np.ndarray | None]:
-        """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""
-        images = []
-        for cam in self.sequence.cameras:
-            try:
-                images.append(self.sequence.image(frame, cam.name))
-            except ViewError as e:
-                self._view_left_out(frame, cam, e)
-                images.append(None)
-        return images
-
-    def _view_left_out(self, frame: int, cam, error: ViewError) -> None:
-        """Record that `cam` is left out of `frame`; a camera without its background is
-        left out of every frame, and was said so once, at start-up."""
-        if (frame, cam.name) not in self._broken:
-            self._broken.add((frame, cam.name))
-            if cam.name not in self._no_background:
-                self.problems.add(frame, error.what, cam.name, error.file)
+        return self.segmenter.segment(frame, priors)[0]
 
     @property
     def _hull_tolerance(self) -> int:
@@ -210,79 +125,9 @@ class Tracker:
         reach = self.options.hand_reach
         return reach if reach is not None else (0.6 if self.given_silhouettes else 1.0)
 
-    def _segmenters(self):
-        """The background models (None for a camera without a usable background image, in
-        `_no_background`); the guided segmenters built on them, or None. A SequenceError
-        when no camera has a background image."""
-        if self._backgrounds is None:
-            seq = self.sequence
-            backgrounds = []
-            for cam in seq.cameras:
-                try:
-                    backgrounds.append(background_model(seq.backgrounds(cam.name), self.options.background))
-                except ViewError as e:
-                    self._no_background[cam.name] = e
-                    backgrounds.append(None)
-            if len(self._no_background) == len(seq.cameras):
-                first = next(iter(self._no_background.values()))
-                raise SequenceError(
-                    f"{seq.path}: no camera has a usable background image ({first}); background subtraction "
-                    "needs background/<camera>.png of the empty scene for each camera (or a clip of it), or give "
-                    "the sequence your own masks in silhouettes/<camera>/ (docs/formats.md)")
-            self._backgrounds = backgrounds
-            if self.options.guided and self.options.background == "statistical":
-                self._guided = [None if b is None else GuidedSegmenter(b, self._guidance) for b in backgrounds]
-        return self._guided
-
-    def _silhouettes(self, model: BodyModel, pose: PoseParameters,
-                     also: PoseParameters | None = None) -> list[np.ndarray]:
-        """The model's (H, W) bool silhouette at `pose` in every view, united with its
-        silhouette at `also` when given."""
-        faces, closed = model.faces, model.closed
-        posed = [model.pose(p.theta, p.root_rotation, p.root_translation).vertices
-                 for p in (pose, also) if p is not None]
-
-        def drawn(cam):
-            silhouettes = [render_silhouette(cam, v, faces, closed=closed) for v in posed]
-            return silhouettes[0] if len(silhouettes) == 1 else np.logical_or.reduce(silhouettes)
-        return over_views(drawn, self.sequence.cameras)
-
-    def _guides(self) -> bool:
-        """Whether silhouettes are guided by the model."""
-        return not self.given_silhouettes and self._segmenters() is not None
-
     def _window_end(self, first: int, n: int) -> int:
         """The frame after the first `calibration_seconds` from `first` (at most `n`)."""
         return min(n, first + max(2, int(round(self.options.calibration_seconds * self.sequence.fps))))
-
-    def _teaching_frames(self, first: int, n: int) -> list[int]:
-        """The frames after `first`, spread over the first `calibration_seconds`, from which
-        tracking teaches the guided segmenters colours as it goes, when they know fewer than
-        `calibration_frames` frames' colours. A refined model's window taught them that many
-        (:meth:`_refine`), the bends of the body among them; a given model, or one built
-        without ``refine_joints``, was placed at one frame, whose colours alone they know.
-        Each is taught at the first frame from it on that passes without a search."""
-        if not self._guides() or self._colour_frames >= self.options.calibration_frames:
-            return []
-        return _spread(list(range(first, self._window_end(first, n))), self.options.calibration_frames)[1:]
-
-    def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False,
-                      images: list | None = None) -> None:
-        """Teach the guided segmenters the subject's and background's colours from a frame
-        in which `model` is fitted at `pose` (`fresh`: forget what they knew); `images`:
-        the frame's, when they were read already (None for a view left out). No-op when
-        the silhouettes are not guided."""
-        if not self._guides():
-            return
-        images = self._images(frame) if images is None else images
-        self._colour_frames = 1 if fresh else self._colour_frames + 1
-        for seg, img, sil in zip(self._guided, images, self._silhouettes(model, pose)):
-            if seg is None:  # a camera without its background
-                continue
-            if fresh:
-                seg.colours.clear()
-            if img is not None:
-                seg.learn(img, sil)
 
     def hull(self, frame: int, prior=None):
         """The visual hull of `frame`, with the model at a predicted pose as its prior
@@ -296,19 +141,19 @@ class Tracker:
         `hull_doubt`), the hull less the vertices no guided view vouches for."""
         tolerance = self._hull_tolerance
         # The prior's silhouettes serve the guided masks and the tolerant hull, nothing else.
-        used = prior is not None and (tolerance > 0 or self._guides())
+        used = prior is not None and (tolerance > 0 or self.segmenter.guides)
         t0 = time.perf_counter()
-        silhouettes = self._silhouettes(*prior) if used else None
+        silhouettes = model_silhouettes(self.sequence.cameras, *prior) if used else None
         self.seconds["silhouettes"] += time.perf_counter() - t0  # the prediction, drawn for the masks
-        masks, unsure = self._segment(frame, silhouettes)
-        if all((frame, cam.name) in self._broken for cam in self.sequence.cameras):
+        masks, unsure = self.segmenter.segment(frame, silhouettes)
+        if all((frame, cam.name) in self.segmenter.broken for cam in self.sequence.cameras):
             raise HullError("no usable view: every camera's was left out")
         if not any(m.any() for m in masks):
             raise PersonAbsent(f"{ABSENT} (every mask is empty)")
         t0 = time.perf_counter()
         report = HullReport()
         priors = None if silhouettes is None or tolerance == 0 else \
-            over_views(lambda view: _overrulable(*view, self._guidance.outer), zip(silhouettes, unsure))
+            over_views(lambda view: _overrulable(*view, self.segmenter.guidance.outer), zip(silhouettes, unsure))
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
@@ -321,14 +166,14 @@ class Tracker:
             return surface, masks
         finally:
             for name, why in report.skipped.items():
-                if (frame, name) not in self._broken:
+                if (frame, name) not in self.segmenter.broken:
                     self.problems.add(frame, f"left out ({why})", name)
             self.seconds["hull"] += time.perf_counter() - t0
 
     def _agreement(self, masks, model: BodyModel, pose: PoseParameters) -> float:
         """Mean over the views of the IoU of `model`'s silhouette at `pose` and `masks`."""
         ious = []
-        for mask, sil in zip(masks, self._silhouettes(model, pose)):
+        for mask, sil in zip(masks, model_silhouettes(self.sequence.cameras, model, pose)):
             union = np.logical_or(mask > 0, sil).sum()
             ious.append(np.logical_and(mask > 0, sil).sum() / union if union else 0.0)
         return float(np.mean(ious))
@@ -357,27 +202,30 @@ class Tracker:
             clear(out)
             t0, before = time.perf_counter(), dict(self.seconds)
             model, start, anchor = self._subject(n, show_progress)
-            self._teach_at = self._teaching_frames(start, n)
+            window = list(range(start, self._window_end(start, n)))
+            self.segmenter.teach_at = self.segmenter.teaching_frames(window)
             # The subject's frames (the calibration pass too) count as 'subject' only, so
             # that the per-stage seconds are those of tracking the sequence once.
-            self.seconds = defaultdict(float, before)
+            self.seconds.clear()
+            self.seconds.update(before)
             self.seconds["subject"] += time.perf_counter() - t0
             tracked = model.with_wrists() if self.options.wrists else model
             tracked.save(out / "model")
             result = TrackingResult.empty(tracked, n, self.sequence.fps)
             state = self._tracking_state(tracked, start, anchor, built=model)
-            self._checkpoint(out, result, start, settings, state.carried(), self._learnt())  # the model's work kept
+            # The subject's model is the work of minutes: kept before the first frame is tracked.
+            self._checkpoint(out, result, start, settings, state.carried(), self.segmenter.learnt())
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
-        frame, carried, learnt = start, state.carried(), self._learnt()
+        frame, carried, learnt = start, state.carried(), self.segmenter.learnt()
         try:
-            with self._reading_ahead(range(start, n)):
+            with self.segmenter.reading_ahead(range(start, n)):
                 for frame in bar:
                     if frame > start:
-                        carried, learnt = state.carried(), self._learnt()
+                        carried, learnt = state.carried(), self.segmenter.learnt()
                     self._track(state, result, frame)
                     if frame % 10 == 0:
-                        self._checkpoint(out, result, frame + 1, settings, state.carried(), self._learnt())
+                        self._checkpoint(out, result, frame + 1, settings, state.carried(), self.segmenter.learnt())
         except BaseException:
             # Interrupted, or a fault: every frame tracked before this one is kept, with the
             # state as this frame found it, so that a resume goes on as this run would have.
@@ -385,7 +233,7 @@ class Tracker:
                 self._checkpoint(out, result, frame, settings, carried, learnt)
             raise
         bar.close()
-        self._checkpoint(out, result, n, settings, state.carried(), self._learnt())
+        self._checkpoint(out, result, n, settings, state.carried(), self.segmenter.learnt())
         result.seconds = dict(self.seconds)
         self.written = ["model/", *write_outputs(out, result, interpolate, smooth_hz)]
         write_report(out / "report.png", result)
@@ -410,24 +258,6 @@ class Tracker:
         return {**settings(self.options), "frames": n, "image_scale": self.sequence.image_scale,
                 "volume": np.asarray(self.bounds).ravel().tolist(), "model given": given}
 
-    @contextmanager
-    def _reading_ahead(self, frames):
-        """While it lasts, :meth:`masks` takes `frames`, in order, from the read-ahead
-        thread (when the options ask for one)."""
-        if self.options.read_ahead == 0 or not len(frames):
-            yield
-            return
-        if not self.given_silhouettes:
-            self._segmenters()  # built here, not on the other thread
-        ahead = ReadAhead(self._inputs, frames, self.options.read_ahead)
-        try:
-            with ahead:
-                self._ahead = ahead
-                yield
-        finally:
-            self._ahead = None
-            self.seconds["read ahead"] += ahead.seconds
-
     def _frames_to_track(self, frames: int | None) -> int:
         """How many frames to track, after the start-up checks: every camera's frames on
         disk against ``meta.json`` (recorded; frames that no camera has are not tracked)
@@ -444,10 +274,7 @@ class Tracker:
                                     f"only the first {len(seq)} are tracked")
         if not self.given_silhouettes:
             seq.check_image_sizes()
-            self._segmenters()
-            for name, e in self._no_background.items():
-                self.problems.add(None, f"left out of every frame: no usable background image ({e.what})", name,
-                                  e.file)
+        self.segmenter.prepare()
         return max(1, min(n, max(counts.values())))
 
     def _subject(self, n: int, show_progress: bool):
@@ -463,15 +290,15 @@ class Tracker:
             if self.model is not None:
                 placed = place_model(self.model, hull, options=options.subject)
                 if self._agreement(masks, self.model, placed.pose) >= options.min_subject_agreement:
-                    self.learn_colours(frame, self.model, placed.pose, fresh=True)
+                    self.segmenter.learn_colours(frame, self.model, placed.pose, fresh=True)
                     return self.model, frame, placed
                 continue
             try:
                 subject = build_subject(hull, options=options.subject)
                 # Silhouettes guided by the model just built see what the first ones missed
                 # (clothes the colour of the room): build it again from them, twice.
-                for _ in range(2 if self._guides() else 0):
-                    self.learn_colours(frame, subject.model, subject.pose, fresh=True)
+                for _ in range(2 if self.segmenter.guides else 0):
+                    self.segmenter.learn_colours(frame, subject.model, subject.pose, fresh=True)
                     guided, masks = self._carve(frame, (subject.model, subject.pose))
                     subject = build_subject(guided, poses=[subject.pose], options=options.subject)
             except ValueError as e:
@@ -520,10 +347,10 @@ class Tracker:
         good = [f for f in range(first, last) if not window.failed[f] and stands[f]]
         if len(good) < 2:
             return subject.model, first, subject.fit
-        picks = _spread(good, self.options.calibration_frames)
+        picks = spread(good, self.options.calibration_frames)
         poses = [window.pose(f) for f in picks]
         for k, (f, pose) in enumerate(zip(picks, poses)):
-            self.learn_colours(f, subject.model, pose, fresh=k == 0)
+            self.segmenter.learn_colours(f, subject.model, pose, fresh=k == 0)
         hulls = [self.hull(f, (subject.model, pose)) for f, pose in zip(picks, poses)]
         refined = build_subject(hulls, poses=poses, options=self.options.subject)
         model, moved = refined.model, False
@@ -535,7 +362,7 @@ class Tracker:
             moved |= move != 0
         o = self.options.subject
         if o.surface_reach is not None:
-            measured = _spread(good, o.surface_frames)
+            measured = spread(good, o.surface_frames)
             shown = [self.hull(f, (subject.model, window.pose(f))) for f in measured]
             at = over_fits(lambda job, threads: fit(model, make_target(job[0]), job[1], o.fit, threads=threads).pose,
                            [(h, window.pose(f)) for f, h in zip(measured, shown)])
@@ -641,9 +468,8 @@ class Tracker:
         if status != FAILED:
             state.remember_fit(best)
         self.seconds["fit"] += time.perf_counter() - t0
-        if passed and self._teach_at and frame >= self._teach_at[0] and self._segmented[0] == frame:
-            self._teach_at = [f for f in self._teach_at if f > frame]
-            self.learn_colours(frame, state.guide, best.pose, images=self._segmented[1])
+        if passed:
+            self.segmenter.teach(frame, state.guide, best.pose)
 
     def _fit_from(self, state: TrackingState, target, start: PoseParameters, options: FitOptions,
                   model: BodyModel | None = None) -> FitResult:
@@ -666,32 +492,6 @@ class Tracker:
         self.problems.save(out / PROBLEMS)
         atomic_write(out / CHECKPOINT, buf.getvalue())
 
-    def _learnt(self) -> dict:
-        """What the run has learnt besides its results, for the checkpoint: the guided
-        segmenters' colours and the frames still to teach them from."""
-        learnt = {LEARNT_TEACH_AT: np.asarray(self._teach_at, np.int64)}
-        if self._guides():
-            known = next(g for g in self._guided if g is not None)  # a camera without its background: none
-            for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
-                none = np.zeros_like(getattr(known.colours, part))
-                learnt[name] = np.stack([none if g is None else getattr(g.colours, part) for g in self._guided])
-        return learnt
-
-    def _relearn(self, arrays: dict) -> None:
-        """Takes back from a checkpoint's `arrays` (and removes from them) what
-        :meth:`_learnt` put there, so that a resumed run goes on as the interrupted one would."""
-        teach_at = np.asarray(arrays.pop(LEARNT_TEACH_AT, np.empty(0, np.int64)))
-        if teach_at.ndim != 1 or teach_at.dtype.kind not in "iu":
-            raise ValueError(f"{LEARNT_TEACH_AT} is not a list of frames")
-        self._teach_at = [int(f) for f in teach_at]
-        colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
-        if colours[0] is not None and self._guides():
-            if any(len(c) != len(self._guided) for c in colours):
-                raise ValueError(f"colours of {len(colours[0])} cameras, not {len(self._guided)}")
-            for g, subject, background in zip(self._guided, *colours):
-                if g is not None:
-                    g.colours.restore(subject, background)
-
     def _resume(self, out: Path, n: int, settings: dict):
         """``(result, next frame, state)`` of the checkpoint in `out`, or ``(None, 0, None)``
         when there is none for this sequence; ResultsError when it was made with other
@@ -713,7 +513,7 @@ class Tracker:
                 elif len(z["failed"]) != n:  # a checkpoint from before settings were kept
                     return None, 0, None
                 arrays = {k: z[k] for k in z.files if k not in ("cameras", "settings")}
-            self._relearn(arrays)
+            self.segmenter.relearn(arrays)
             result, start = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays), int(arrays["next_frame"])
             state = self._tracking_state(result.model)
             state.resume(arrays, result, start)
@@ -745,23 +545,9 @@ class PersonAbsent(HullError):
     ``problems.json``; tracking finds the person again when they return."""
 
 
-@dataclass
-class _Input:
-    """One camera's input of one frame: its mask, or its image and background evidence."""
-
-    mask: np.ndarray | None = None
-    image: np.ndarray | None = None
-    evidence: np.ndarray | None = None
-
-
 def _overrulable(silhouette: np.ndarray, unsure: np.ndarray | None, band: float) -> np.ndarray:
     """Where the tolerant hull may overrule a view: its predicted `silhouette` grown by
     `band` of its height (the prediction's error), less what the view's guided mask
     called background for sure (`unsure` False; None for a view not guided)."""
     grown = dilated(silhouette, band)
     return grown if unsure is None else grown & unsure
-
-
-def _spread(frames: list[int], n: int) -> list[int]:
-    """Up to `n` of `frames`, spread evenly over them (the first and the last among them)."""
-    return sorted({frames[int(round(i))] for i in np.linspace(0, len(frames) - 1, n)})

@@ -1,0 +1,276 @@
+"""The silhouettes of a tracking run (docs/design.md, "Silhouettes"): each camera's mask of
+each frame, from the sequence's own masks or by background subtraction, guided by the model
+at its predicted pose and by the subject's colours (:mod:`hullcap._guided`).
+
+One :class:`Segmenter` serves a run: it builds each camera's background model once, reads
+frames ahead on a second thread while the engine fits the frame before
+(:meth:`Segmenter.reading_ahead`), leaves out a view it cannot use (recorded once in the
+run's problems), and learns the subject's colours from frames in which the model is
+fitted.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+
+from hullcap._body import BodyModel
+from hullcap._fitting import PoseParameters
+from hullcap._guided import GuidedSegmenter
+from hullcap._problems import ProblemLog
+from hullcap._render import model_silhouettes
+from hullcap._sequence import Sequence
+from hullcap._silhouette import background_model
+from hullcap._threads import ReadAhead, over_views
+from hullcap._tracking_options import TrackerOptions
+from hullcap.errors import SequenceError, ViewError
+
+__all__ = ["Segmenter"]
+
+# The checkpoint's arrays of what the segmenter learnt (Segmenter.learnt).
+LEARNT_TEACH_AT = "learnt_teach_at"
+LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
+
+
+@dataclass
+class _Input:
+    """One camera's input of one frame: its mask, or its image and background evidence."""
+
+    mask: np.ndarray | None = None
+    image: np.ndarray | None = None
+    evidence: np.ndarray | None = None
+
+
+class Segmenter:
+    """Every camera's silhouettes of a sequence's frames, by `options` (see the module
+    documentation); views left out go to `problems`, seconds spent to `seconds`."""
+
+    def __init__(self, sequence: Sequence, options: TrackerOptions, problems: ProblemLog, seconds: defaultdict):
+        self.sequence = sequence
+        self.options = options
+        self.problems = problems
+        self.seconds = seconds
+        self.guidance = options.guidance.for_frame_rate(sequence.fps)
+        """The guided masks' options at the sequence's frame rate."""
+        self._backgrounds = None
+        self._guided = None
+        # Cameras without a usable background image, left out of every frame: name → why.
+        self.no_background: dict[str, ViewError] = {}
+        self.broken: set = set()
+        """``(frame, camera)`` of the views already left out."""
+        self._ahead: ReadAhead | None = None
+        # How many frames' colours the guided segmenters know since they last forgot, and
+        # the frames from which tracking still teaches them, in order (`teaching_frames`).
+        self._colour_frames = 0
+        self.teach_at: list[int] = []
+        # The last frame segmented and its images (None for a view left out), which
+        # teaching reads instead of decoding them again: a video camera's reader is the
+        # read-ahead thread's meanwhile.
+        self._segmented: tuple[int, list] = (-1, [])
+
+    @property
+    def given(self) -> bool:
+        """Whether the masks are the sequence's own (else by background subtraction)."""
+        return self.options.use_silhouettes and self.sequence.has_silhouettes
+
+    @property
+    def guides(self) -> bool:
+        """Whether the masks are guided by the model."""
+        return not self.given and self._segmenters() is not None
+
+    def segment(self, frame: int, priors=None) -> tuple[list[np.ndarray], list[np.ndarray | None]]:
+        """``(masks, unsure)`` of `frame`: each view's mask (an empty one for a view left
+        out), guided by the predicted model's silhouettes `priors` (one bool image per view)
+        when the options say so; and for each view where its guided mask was not sure of
+        the background (:meth:`GuidedSegmenter.segment`; None for a view not guided)."""
+        t0 = time.perf_counter()
+        inputs = self._ahead.take(frame) if self._ahead is not None else self._inputs(frame)
+
+        def segmented(i: int):
+            view = inputs[i]
+            return self._guided[i].segment(view.image, None if priors is None else priors[i], view.evidence)
+
+        to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
+        self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
+        segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
+        masks, unsure = [], []
+        for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
+            if isinstance(view, ViewError):  # a missing or broken image or mask: leave that view out
+                self.left_out(frame, cam, view)
+                masks.append(np.zeros((cam.height, cam.width), np.uint8))
+            elif view.mask is not None:
+                masks.append(view.mask)
+            else:
+                masks.append(segmented_views[i][0])
+            unsure.append(segmented_views[i][1] if i in segmented_views else None)
+        self.seconds["silhouettes"] += time.perf_counter() - t0
+        return masks, unsure
+
+    def _inputs(self, frame: int) -> list[_Input | ViewError]:
+        """What each camera gives for `frame` before any prediction: the given mask, the
+        mask of the unguided background test, or the image with the guided segmenter's
+        background evidence; or the ViewError that leaves it out. Runs on the read-ahead
+        thread: it may not touch the problem log."""
+        seq = self.sequence
+        segmenters = None if self.given else self._segmenters()
+        inputs: list[_Input | ViewError] = []
+        for i, cam in enumerate(seq.cameras):
+            if cam.name in self.no_background:
+                inputs.append(self.no_background[cam.name])
+                continue
+            try:
+                if self.given:
+                    inputs.append(_Input(mask=seq.mask(frame, cam.name)))
+                    continue
+                image = seq.image(frame, cam.name)
+            except ViewError as e:
+                inputs.append(e)
+                continue
+            if segmenters is None:
+                inputs.append(_Input(mask=self._backgrounds[i].mask(image)))
+            else:
+                inputs.append(_Input(image=image, evidence=segmenters[i].background.evidence(image)))
+        return inputs
+
+    def _images(self, frame: int) -> list[np.ndarray | None]:
+        """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""
+        images = []
+        for cam in self.sequence.cameras:
+            try:
+                images.append(self.sequence.image(frame, cam.name))
+            except ViewError as e:
+                self.left_out(frame, cam, e)
+                images.append(None)
+        return images
+
+    def left_out(self, frame: int, cam, error: ViewError) -> None:
+        """Record that `cam` is left out of `frame`; a camera without its background is
+        left out of every frame, and was said so once, at start-up."""
+        if (frame, cam.name) not in self.broken:
+            self.broken.add((frame, cam.name))
+            if cam.name not in self.no_background:
+                self.problems.add(frame, error.what, cam.name, error.file)
+
+    def prepare(self) -> None:
+        """Build each camera's background model now (when the masks are not given), and
+        record every camera left out for want of one."""
+        if self.given:
+            return
+        self._segmenters()
+        for name, e in self.no_background.items():
+            self.problems.add(None, f"left out of every frame: no usable background image ({e.what})", name, e.file)
+
+    def _segmenters(self):
+        """The background models (None for a camera without a usable background image, in
+        `no_background`); the guided segmenters built on them, or None. A SequenceError
+        when no camera has a background image."""
+        if self._backgrounds is None:
+            seq = self.sequence
+            backgrounds = []
+            for cam in seq.cameras:
+                try:
+                    backgrounds.append(background_model(seq.backgrounds(cam.name), self.options.background))
+                except ViewError as e:
+                    self.no_background[cam.name] = e
+                    backgrounds.append(None)
+            if len(self.no_background) == len(seq.cameras):
+                first = next(iter(self.no_background.values()))
+                raise SequenceError(
+                    f"{seq.path}: no camera has a usable background image ({first}); background subtraction "
+                    "needs background/<camera>.png of the empty scene for each camera (or a clip of it), or give "
+                    "the sequence your own masks in silhouettes/<camera>/ (docs/formats.md)")
+            self._backgrounds = backgrounds
+            if self.options.guided and self.options.background == "statistical":
+                self._guided = [None if b is None else GuidedSegmenter(b, self.guidance) for b in backgrounds]
+        return self._guided
+
+    @contextmanager
+    def reading_ahead(self, frames):
+        """While it lasts, :meth:`segment` takes `frames`, in order, from the read-ahead
+        thread (when the options ask for one)."""
+        if self.options.read_ahead == 0 or not len(frames):
+            yield
+            return
+        if not self.given:
+            self._segmenters()  # built here, not on the other thread
+        ahead = ReadAhead(self._inputs, frames, self.options.read_ahead)
+        try:
+            with ahead:
+                self._ahead = ahead
+                yield
+        finally:
+            self._ahead = None
+            self.seconds["read ahead"] += ahead.seconds
+
+    # -- the subject's colours ----------------------------------------------------------
+
+    def teaching_frames(self, window: list[int]) -> list[int]:
+        """The frames of `window` (the first seconds from the first tracked frame), spread
+        over it, from which tracking teaches the guided segmenters colours as it goes, when
+        they know fewer than `calibration_frames` frames' colours. A refined model's window
+        taught them that many, the bends of the body among them; a given model, or one
+        built without ``refine_joints``, was placed at one frame, whose colours alone they
+        know. Each is taught at the first frame from it on that passes without a search."""
+        if not self.guides or self._colour_frames >= self.options.calibration_frames:
+            return []
+        return spread(window, self.options.calibration_frames)[1:]
+
+    def learn_colours(self, frame: int, model: BodyModel, pose: PoseParameters, fresh: bool = False,
+                      images: list | None = None) -> None:
+        """Teach the guided segmenters the subject's and background's colours from a frame
+        in which `model` is fitted at `pose` (`fresh`: forget what they knew); `images`:
+        the frame's, when they were read already (None for a view left out). No-op when
+        the silhouettes are not guided."""
+        if not self.guides:
+            return
+        images = self._images(frame) if images is None else images
+        self._colour_frames = 1 if fresh else self._colour_frames + 1
+        for seg, img, sil in zip(self._guided, images, model_silhouettes(self.sequence.cameras, model, pose)):
+            if seg is None:  # a camera without its background
+                continue
+            if fresh:
+                seg.colours.clear()
+            if img is not None:
+                seg.learn(img, sil)
+
+    def teach(self, frame: int, model: BodyModel, pose: PoseParameters) -> None:
+        """Learn colours from `frame`, just segmented and fitted without a search (`model`
+        at `pose`), when it is due to teach (:meth:`teaching_frames`)."""
+        if self.teach_at and frame >= self.teach_at[0] and self._segmented[0] == frame:
+            self.teach_at = [f for f in self.teach_at if f > frame]
+            self.learn_colours(frame, model, pose, images=self._segmented[1])
+
+    def learnt(self) -> dict:
+        """What the segmenters have learnt, for the checkpoint: the guided segmenters'
+        colours and the frames still to teach them from."""
+        learnt = {LEARNT_TEACH_AT: np.asarray(self.teach_at, np.int64)}
+        if self.guides:
+            known = next(g for g in self._guided if g is not None)  # a camera without its background: none
+            for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
+                none = np.zeros_like(getattr(known.colours, part))
+                learnt[name] = np.stack([none if g is None else getattr(g.colours, part) for g in self._guided])
+        return learnt
+
+    def relearn(self, arrays: dict) -> None:
+        """Takes back from a checkpoint's `arrays` (and removes from them) what
+        :meth:`learnt` put there, so that a resumed run goes on as the interrupted one would."""
+        teach_at = np.asarray(arrays.pop(LEARNT_TEACH_AT, np.empty(0, np.int64)))
+        if teach_at.ndim != 1 or teach_at.dtype.kind not in "iu":
+            raise ValueError(f"{LEARNT_TEACH_AT} is not a list of frames")
+        self.teach_at = [int(f) for f in teach_at]
+        colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
+        if colours[0] is not None and self.guides:
+            if any(len(c) != len(self._guided) for c in colours):
+                raise ValueError(f"colours of {len(colours[0])} cameras, not {len(self._guided)}")
+            for g, subject, background in zip(self._guided, *colours):
+                if g is not None:
+                    g.colours.restore(subject, background)
+
+
+def spread(frames: list[int], n: int) -> list[int]:
+    """Up to `n` of `frames`, spread evenly over them (the first and the last among them)."""
+    return sorted({frames[int(round(i))] for i in np.linspace(0, len(frames) - 1, n)})
