@@ -81,6 +81,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
         tracker = SurfaceTracker(seq, model=model, options=replace(options, hand_reach=1.0))
     else:
         tracker = Tracker(seq, model=model, options=options)
+    (run_dir / "frames.csv").unlink(missing_ok=True)  # ours, not a run's: the run would refuse the folder
     t0 = time.perf_counter()
     result = tracker.run(run_dir, resume=False, show_progress=show_progress, frames=frames)
     seconds = time.perf_counter() - t0
