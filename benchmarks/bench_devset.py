@@ -49,21 +49,23 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import devset  # noqa: E402
 from hullcap._body import BodyModel  # noqa: E402
+from hullcap._carver import Carver  # noqa: E402
 from hullcap._results import RECOVERED, STATUS_NAMES  # noqa: E402
 from hullcap._sequence import MIN_CAMERAS, Sequence  # noqa: E402
 from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
 
 
-class SurfaceTracker(Tracker):
-    """A tracker given each frame's true body surface (:class:`devset.TrueSurfaces`) where
-    it would carve a hull; the exact masks for the rest (the start's agreement test)."""
+class TrueSurfaceCarver(Carver):
+    """A tracker's carver that gives each frame's true body surface
+    (:class:`devset.TrueSurfaces`) where it would carve a hull; the exact masks for the
+    rest (the start's agreement test)."""
 
-    def __init__(self, sequence: Sequence, **kwargs):
-        super().__init__(sequence, **kwargs)
+    def __init__(self, carver: Carver, sequence: Sequence):
+        super().__init__(carver.segmenter, carver.options, carver.volume, carver.problems, carver.seconds)
         self._surfaces = devset.TrueSurfaces(sequence.path)
 
-    def _carve(self, frame: int, prior=None, doubt=None):
-        return self._surfaces(frame), self.masks(frame, None)
+    def carve(self, frame: int, prior=None, doubt=None):
+        return self._surfaces(frame), self.segmenter.segment(frame, None)[0]
 
 
 def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, options: TrackerOptions,
@@ -78,7 +80,8 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     options = replace(options, use_silhouettes=mode != "colour")
     model = None if models_from is None else BodyModel.load(models_from / run_dir.name / "model")
     if mode == "surface":
-        tracker = SurfaceTracker(seq, model=model, options=replace(options, hand_reach=1.0))
+        tracker = Tracker(seq, model=model, options=replace(options, hand_reach=1.0))
+        tracker.carver = TrueSurfaceCarver(tracker.carver, seq)
     else:
         tracker = Tracker(seq, model=model, options=options)
     (run_dir / "frames.csv").unlink(missing_ok=True)  # ours, not a run's: the run would refuse the folder

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hullcap import BodyModel, Sequence, Tracker, TrackerOptions, smooth_joints
 from hullcap._cameras import ring
+from hullcap._carver import Carver
 from hullcap._motions import motion_poses
 from hullcap._reacquire import PoseSearch
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
@@ -198,7 +199,7 @@ def test_the_calibration_window_keeps_its_prior_through_poor_fits(tmp_path, monk
             cv2.fillConvexPoly(mask, cv2.convexHull(corners), 255)
             cv2.imwrite(str(path), mask)
     carved, hulls = [], []
-    carve, hull = Tracker._carve, Tracker.hull
+    carve, hull = Carver.carve, Tracker.hull
 
     def spy_carve(self, frame, prior=None, doubt=None):
         carved.append((frame, prior is not None))
@@ -208,7 +209,7 @@ def test_the_calibration_window_keeps_its_prior_through_poor_fits(tmp_path, monk
         hulls.append(frame)
         return hull(self, frame, prior)
 
-    monkeypatch.setattr(Tracker, "_carve", spy_carve)
+    monkeypatch.setattr(Carver, "carve", spy_carve)
     monkeypatch.setattr(Tracker, "hull", spy_hull)
     options = TrackerOptions(calibration_seconds=0.4, calibration_frames=4, min_quality=0.75)
     window = round(options.calibration_seconds * seq.fps)  # 12 frames, the crate's among them

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hullcap import BodyModel, FitOptions, PoseParameters, Surface, Tracker, TrackerOptions, fit
 from hullcap._cameras import ring
+from hullcap._carver import Carver
 from hullcap._cli import main
 from hullcap._evaluate import accuracy
 from hullcap._render import model_silhouettes
@@ -213,14 +214,14 @@ def test_a_real_bend_put_in_doubt_is_still_followed(short_sequence, tmp_path, mo
     tracking follows the bend as it does without the doubt."""
     seq = Sequence(short_sequence)
     in_doubt = []
-    carve = Tracker._carve
+    carve = Carver.carve
 
     def carving(self, frame, prior=None, doubt=None):
         if prior is not None and prior[2:] and prior[2] is not None:
             in_doubt.append(frame)
         return carve(self, frame, prior, doubt)
 
-    monkeypatch.setattr(Tracker, "_carve", carving)
+    monkeypatch.setattr(Carver, "carve", carving)
     runs = {}
     for elbow_doubt in (0.5, 0.0):
         options = TrackerOptions(use_silhouettes=False, refine_joints=False, hinge_jump=np.radians(8),

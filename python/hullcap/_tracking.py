@@ -34,7 +34,6 @@ import io
 import json
 import os
 import time
-import warnings
 from collections import defaultdict
 from contextlib import suppress
 from dataclasses import replace
@@ -43,12 +42,11 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._body import BodyModel
+from hullcap._carver import Carver
 from hullcap._cameras import capture_volume, check_bounds
 from hullcap._files import NPZ_ERRORS, atomic_write
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
-from hullcap._guided import dilated
-from hullcap._hull import HullReport, doubtful_vertices, visual_hull
-from hullcap._problems import ABSENT, ProblemLog
+from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._render import model_silhouettes
 from hullcap._run_folder import check_room, check_writable, clear
@@ -56,10 +54,10 @@ from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cuto
 from hullcap._segmenter import Segmenter, spread
 from hullcap._sequence import MIN_CAMERAS, Sequence
 from hullcap._subject import bent_frames, build_subject, fitted_surface, place_model, search_centres, with_hands
-from hullcap._threads import over_fits, over_views
+from hullcap._threads import over_fits
 from hullcap._tracking_options import TrackerOptions, settings
 from hullcap._tracking_state import TrackingState
-from hullcap.errors import HullError, OptionsError, ResultsError, SequenceError, TrackingError
+from hullcap.errors import OptionsError, ResultsError, SequenceError, TrackingError
 from hullcap.export import write_outputs, write_overlays, write_report
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -98,6 +96,8 @@ class Tracker:
         """Frames and views left out, and why (:mod:`hullcap._problems`)."""
         self.segmenter = Segmenter(sequence, self.options, self.problems, self.seconds)
         """Each frame's silhouettes (:mod:`hullcap._segmenter`)."""
+        self.carver = Carver(self.segmenter, self.options, self.bounds, self.problems, self.seconds)
+        """Each frame's visual hull (:mod:`hullcap._carver`)."""
         self.written: list[str] = []
         """The files and folders the last :meth:`run` wrote into its folder."""
 
@@ -116,11 +116,6 @@ class Tracker:
         return self.segmenter.segment(frame, priors)[0]
 
     @property
-    def _hull_tolerance(self) -> int:
-        tolerance = self.options.hull_tolerance
-        return tolerance if tolerance is not None else (0 if self.given_silhouettes else 1)
-
-    @property
     def _hand_reach(self) -> float:
         reach = self.options.hand_reach
         return reach if reach is not None else (0.6 if self.given_silhouettes else 1.0)
@@ -134,41 +129,7 @@ class Tracker:
         (`prior`: ``(model, PoseParameters)``): it guides the silhouettes (:meth:`masks`)
         and says where a view that misses a part may be overruled (`hull_tolerance`).
         `HullError` (a `ValueError`) when there is no hull."""
-        return self._carve(frame, prior)[0]
-
-    def _carve(self, frame: int, prior=None, doubt: float | None = None):
-        """``(hull, masks)`` of `frame` (see :meth:`hull`); with `doubt` (metres, see
-        `hull_doubt`), the hull less the vertices no guided view vouches for."""
-        tolerance = self._hull_tolerance
-        # The prior's silhouettes serve the guided masks and the tolerant hull, nothing else.
-        used = prior is not None and (tolerance > 0 or self.segmenter.guides)
-        t0 = time.perf_counter()
-        silhouettes = model_silhouettes(self.sequence.cameras, *prior) if used else None
-        self.seconds["silhouettes"] += time.perf_counter() - t0  # the prediction, drawn for the masks
-        masks, unsure = self.segmenter.segment(frame, silhouettes)
-        if all((frame, cam.name) in self.segmenter.broken for cam in self.sequence.cameras):
-            raise HullError("no usable view: every camera's was left out")
-        if not any(m.any() for m in masks):
-            raise PersonAbsent(f"{ABSENT} (every mask is empty)")
-        t0 = time.perf_counter()
-        report = HullReport()
-        priors = None if silhouettes is None or tolerance == 0 else \
-            over_views(lambda view: _overrulable(*view, self.segmenter.guidance.outer), zip(silhouettes, unsure))
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # views left out are recorded in `problems`
-                surface = visual_hull(masks, self.sequence.cameras, self.options.voxel_size, self.bounds, report,
-                                      tolerance=tolerance, priors=priors)
-            if doubt is not None and any(u is not None for u in unsure):
-                keep = ~doubtful_vertices(surface, masks, unsure, self.sequence.cameras, doubt,
-                                          self.options.hull_doubt_views)
-                surface = surface.subset(keep) if keep.any() else surface  # an empty target fits nothing
-            return surface, masks
-        finally:
-            for name, why in report.skipped.items():
-                if (frame, name) not in self.segmenter.broken:
-                    self.problems.add(frame, f"left out ({why})", name)
-            self.seconds["hull"] += time.perf_counter() - t0
+        return self.carver.carve(frame, prior)[0]
 
     def _agreement(self, masks, model: BodyModel, pose: PoseParameters) -> float:
         """Mean over the views of the IoU of `model`'s silhouette at `pose` and `masks`."""
@@ -283,7 +244,7 @@ class Tracker:
         options = self.options
         for frame in range(n):
             try:
-                hull, masks = self._carve(frame)
+                hull, masks = self.carver.carve(frame)
             except ValueError as e:
                 self.problems.add(frame, str(e))
                 continue
@@ -299,7 +260,7 @@ class Tracker:
                 # (clothes the colour of the room): build it again from them, twice.
                 for _ in range(2 if self.segmenter.guides else 0):
                     self.segmenter.learn_colours(frame, subject.model, subject.pose, fresh=True)
-                    guided, masks = self._carve(frame, (subject.model, subject.pose))
+                    guided, masks = self.carver.carve(frame, (subject.model, subject.pose))
                     subject = build_subject(guided, poses=[subject.pose], options=options.subject)
             except ValueError as e:
                 self.problems.add(frame, str(e))
@@ -395,7 +356,7 @@ class Tracker:
         before = state.as_before(starts[0]) if starts and follows else None
         prior = (state.guide, starts[0], before) if starts and (follows or state.anchor_only(result, frame)) else None
         try:
-            surface = self._carve(frame, prior, state.options.hull_doubt)[0]
+            surface = self.carver.carve(frame, prior, state.options.hull_doubt)[0]
         except ValueError as e:  # no usable view in this frame
             self.problems.add(frame, str(e))
             result.fail(frame)
@@ -537,17 +498,3 @@ def _check_same_settings(path: Path, then: dict, now: dict, shown: int = 4) -> N
         more = f" and {len(changed) - shown} more" if len(changed) > shown else ""
         raise ResultsError(f"{path}: this run was tracked with other settings ({listed}{more}): give the same "
                            f"options to resume it, or --restart (resume=False) to start over")
-
-
-class PersonAbsent(HullError):
-    """A frame in which no view shows the person (every usable view's mask is empty): the
-    person left the capture volume. The frame is recorded once, as a whole, in
-    ``problems.json``; tracking finds the person again when they return."""
-
-
-def _overrulable(silhouette: np.ndarray, unsure: np.ndarray | None, band: float) -> np.ndarray:
-    """Where the tolerant hull may overrule a view: its predicted `silhouette` grown by
-    `band` of its height (the prediction's error), less what the view's guided mask
-    called background for sure (`unsure` False; None for a view not guided)."""
-    grown = dilated(silhouette, band)
-    return grown if unsure is None else grown & unsure
