@@ -13,6 +13,7 @@ import pytest
 from hullcap import Sequence, Tracker, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._cli import main
+from hullcap._frame_fitter import FrameFitter
 from hullcap._synth import synthesize
 from hullcap.errors import CalibrationError, OptionsError, ResultsError, SequenceError
 
@@ -141,7 +142,7 @@ def test_an_interruption_while_writing_overlays_resumes_without_tracking_again(c
     first = (out / "joints.csv").read_bytes()
     monkeypatch.setattr(tracking, "write_overlays", real)
     tracked = []
-    monkeypatch.setattr(Tracker, "_track", lambda self, *a: tracked.append(a))
+    monkeypatch.setattr(FrameFitter, "track", lambda self, *a: tracked.append(a))
     again = Tracker(seq, options=FAST)
     result = again.run(out, show_progress=False, overlays=True)
     assert tracked == [] and again.seconds.get("subject", 0) == 0
@@ -302,12 +303,12 @@ def test_a_resume_with_other_settings_is_refused_naming_them(clean, tmp_path, mo
     other; --restart starts over with the new settings."""
     seq = copy(clean, tmp_path)
     out = tmp_path / "out"
-    real = Tracker._track
-    monkeypatch.setattr(Tracker, "_track", lambda self, state, result, frame:
+    real = FrameFitter.track
+    monkeypatch.setattr(FrameFitter, "track", lambda self, state, result, frame:
                         (_ for _ in ()).throw(KeyboardInterrupt) if frame == 4 else real(self, state, result, frame))
     assert track(seq, out) == 130
     assert (out / ".checkpoint.npz").is_file()
-    monkeypatch.setattr(Tracker, "_track", real)
+    monkeypatch.setattr(FrameFitter, "track", real)
     capsys.readouterr()
     assert track(seq, out, "--voxel", "0.03") == 2
     assert "other settings (voxel_size: 0.01 then, 0.03 now)" in capsys.readouterr().err
@@ -322,7 +323,7 @@ def test_a_fault_mid_run_keeps_every_frame_tracked_before_it(clean, tmp_path, mo
     with the state frame 6 found, and the resume tracks only frames 6 on, to the same
     joints as a run that never stopped."""
     seq = Sequence(clean)
-    real = Tracker._track
+    real = FrameFitter.track
     tracked, faults = [], [6]
 
     def failing(self, state, result, frame):
@@ -332,13 +333,13 @@ def test_a_fault_mid_run_keeps_every_frame_tracked_before_it(clean, tmp_path, mo
             raise RuntimeError("a fault")
         return real(self, state, result, frame)
 
-    monkeypatch.setattr(Tracker, "_track", failing)
+    monkeypatch.setattr(FrameFitter, "track", failing)
     with pytest.raises(RuntimeError, match="a fault"):
         Tracker(seq, options=FAST).run(tmp_path / "out", show_progress=False)
     tracked.clear()
     resumed = Tracker(seq, options=FAST).run(tmp_path / "out", show_progress=False)
     assert tracked == [6, 7]
-    monkeypatch.setattr(Tracker, "_track", real)
+    monkeypatch.setattr(FrameFitter, "track", real)
     straight = Tracker(seq, options=FAST).run(tmp_path / "straight", show_progress=False)
     assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
 
@@ -347,7 +348,7 @@ def test_the_subject_model_is_kept_as_soon_as_it_is_built(clean, tmp_path, monke
     """Killed while tracking the first frame, after the minutes of building the subject's
     model: the resume does not build it again."""
     seq = Sequence(clean)
-    monkeypatch.setattr(Tracker, "_track", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt))
+    monkeypatch.setattr(FrameFitter, "track", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt))
     with pytest.raises(KeyboardInterrupt):
         Tracker(seq, options=FAST).run(tmp_path / "out", show_progress=False)
     monkeypatch.undo()
@@ -386,7 +387,7 @@ def test_one_camera_is_refused_whatever_the_volume(clean, tmp_path, capsys):
 
 
 def test_a_run_that_tracks_nothing_fails_and_lists_only_what_it_wrote(clean, tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(Tracker, "_track", lambda self, state, result, frame: result.fail(frame))
+    monkeypatch.setattr(FrameFitter, "track", lambda self, state, result, frame: result.fail(frame))
     assert track(copy(clean, tmp_path), tmp_path / "out") == 2
     err = capsys.readouterr().err
     assert f"no frame of {FRAMES} was tracked" in err

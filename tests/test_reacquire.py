@@ -7,6 +7,7 @@ import pytest
 from hullcap import BodyModel, Sequence, Tracker, TrackerOptions, smooth_joints
 from hullcap._cameras import ring
 from hullcap._carver import Carver
+from hullcap._frame_fitter import FrameFitter
 from hullcap._motions import motion_poses
 from hullcap._reacquire import PoseSearch
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
@@ -173,7 +174,7 @@ def test_the_girdle_fit_stands_within_its_tolerance_in_tracking_and_only_when_be
 
     # The window's state, as Tracker._refine builds it.
     seen = []
-    monkeypatch.setattr(Tracker, "_track", lambda self, state, *args: seen.append(state.search.options))
+    monkeypatch.setattr(FrameFitter, "track", lambda self, state, *args: seen.append(state.search.options))
     seq_path, _, _ = render(tmp_path / "seq")
     Tracker(Sequence(seq_path), options=TrackerOptions(calibration_seconds=0.2)).run(
         tmp_path / "out", show_progress=False, frames=8)
@@ -245,7 +246,7 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
     seq_path, truth, _ = render(tmp_path / "seq", JUMP, (0.7, 0.7, 0.0))
     options = TrackerOptions(calibration_seconds=1.0)  # the window holds the jump
     calls, in_window = [], []
-    refine, search, fit_from = Tracker._refine, PoseSearch.search, Tracker._fit_from
+    refine, search, fit_from = Tracker._refine, PoseSearch.search, FrameFitter.fit_from
 
     def spy_refine(self, *args):
         in_window.append(True)
@@ -265,7 +266,7 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
 
     monkeypatch.setattr(Tracker, "_refine", spy_refine)
     monkeypatch.setattr(PoseSearch, "search", spy_search)
-    monkeypatch.setattr(Tracker, "_fit_from", spy_fit_from)
+    monkeypatch.setattr(FrameFitter, "fit_from", spy_fit_from)
     result = Tracker(Sequence(seq_path), options=options).run(tmp_path / "out", show_progress=False)
     window = [c for c in calls if c[1]]
     searches = [i for i, c in enumerate(window) if c[0] == "search"]

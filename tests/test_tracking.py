@@ -12,6 +12,7 @@ from hullcap._cameras import ring
 from hullcap._carver import Carver
 from hullcap._cli import main
 from hullcap._evaluate import accuracy
+from hullcap._frame_fitter import FrameFitter
 from hullcap._render import model_silhouettes
 from hullcap._results import GOOD
 from hullcap._segmenter import Segmenter
@@ -180,7 +181,7 @@ def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(sh
     assert seq.has_silhouettes
     for options, reach in ((TrackerOptions(hand_reach=0.6), 0.6), (TrackerOptions(hand_reach=1.0), 1.0),
                            (TrackerOptions(), 0.6), (TrackerOptions(use_silhouettes=False), 1.0)):
-        state = Tracker(seq, options=options)._tracking_state(model)
+        state = Tracker(seq, options=options).fitter.state(model)
         assert state.guide is model and state.search.model is state.model
         if reach == 1.0:
             assert state.model is model
@@ -290,7 +291,7 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
     options = TrackerOptions(refine_joints=False, use_silhouettes=own_silhouettes)
     tracker = Tracker(seq, options=options)
     calls = {"n": 0}
-    real = Tracker._track
+    real = FrameFitter.track
 
     def interrupting(self, *args):
         calls["n"] += 1
@@ -298,11 +299,11 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
             raise KeyboardInterrupt
         return real(self, *args)
 
-    monkeypatch.setattr(Tracker, "_track", interrupting)
+    monkeypatch.setattr(FrameFitter, "track", interrupting)
     with pytest.raises(KeyboardInterrupt):
         tracker.run(out, show_progress=False, frames=16)
     assert (out / ".checkpoint.npz").is_file() and not (out / "pose.npz").exists()
-    monkeypatch.setattr(Tracker, "_track", real)
+    monkeypatch.setattr(FrameFitter, "track", real)
     fresh = Tracker(seq, options=options)
     resumed = fresh.run(out, show_progress=False, frames=16)
     assert fresh.seconds.get("subject", 0) == 0  # the model came from the checkpoint's run

@@ -45,15 +45,16 @@ from hullcap._body import BodyModel
 from hullcap._carver import Carver
 from hullcap._cameras import capture_volume, check_bounds
 from hullcap._files import NPZ_ERRORS, atomic_write
-from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
+from hullcap._frame_fitter import FrameFitter
+from hullcap._fitting import PoseParameters, fit, make_target
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._render import model_silhouettes
 from hullcap._run_folder import check_room, check_writable, clear
-from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult, check_cutoff
+from hullcap._results import TrackingResult, check_cutoff
 from hullcap._segmenter import Segmenter, spread
 from hullcap._sequence import MIN_CAMERAS, Sequence
-from hullcap._subject import bent_frames, build_subject, fitted_surface, place_model, search_centres, with_hands
+from hullcap._subject import bent_frames, build_subject, fitted_surface, place_model, search_centres
 from hullcap._threads import over_fits
 from hullcap._tracking_options import TrackerOptions, settings
 from hullcap._tracking_state import TrackingState
@@ -98,6 +99,8 @@ class Tracker:
         """Each frame's silhouettes (:mod:`hullcap._segmenter`)."""
         self.carver = Carver(self.segmenter, self.options, self.bounds, self.problems, self.seconds)
         """Each frame's visual hull (:mod:`hullcap._carver`)."""
+        self.fitter = FrameFitter(self.carver, self.options, self.problems, self.seconds)
+        """Each frame's fit, judgement and search (:mod:`hullcap._frame_fitter`)."""
         self.written: list[str] = []
         """The files and folders the last :meth:`run` wrote into its folder."""
 
@@ -114,11 +117,6 @@ class Tracker:
         predicted model's silhouettes `priors` (one bool mask per view) when the options
         say so."""
         return self.segmenter.segment(frame, priors)[0]
-
-    @property
-    def _hand_reach(self) -> float:
-        reach = self.options.hand_reach
-        return reach if reach is not None else (0.6 if self.given_silhouettes else 1.0)
 
     def _window_end(self, first: int, n: int) -> int:
         """The frame after the first `calibration_seconds` from `first` (at most `n`)."""
@@ -173,7 +171,7 @@ class Tracker:
             tracked = model.with_wrists() if self.options.wrists else model
             tracked.save(out / "model")
             result = TrackingResult.empty(tracked, n, self.sequence.fps)
-            state = self._tracking_state(tracked, start, anchor, built=model)
+            state = self.fitter.state(tracked, start, anchor, built=model)
             # The subject's model is the work of minutes: kept before the first frame is tracked.
             self._checkpoint(out, result, start, settings, state.carried(), self.segmenter.learnt())
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
@@ -184,7 +182,7 @@ class Tracker:
                 for frame in bar:
                     if frame > start:
                         carried, learnt = state.carried(), self.segmenter.learnt()
-                    self._track(state, result, frame)
+                    self.fitter.track(state, result, frame)
                     if frame % 10 == 0:
                         self._checkpoint(out, result, frame + 1, settings, state.carried(), self.segmenter.learnt())
         except BaseException:
@@ -303,7 +301,7 @@ class Tracker:
         search_fit = self.options.fit.replace(over_relaxation=self.options.calibration_fit.over_relaxation)
         state = TrackingState(subject.model, strict, subject.fit, search_fit=search_fit)
         for frame in progress(range(first, last), total=last - first, desc="subject model", enable=show_progress):
-            self._track(state, window, frame)
+            self.fitter.track(state, window, frame)
         stands = window.quality >= self.options.min_quality
         good = [f for f in range(first, last) if not window.failed[f] and stands[f]]
         if len(good) < 2:
@@ -331,115 +329,6 @@ class Tracker:
         if not moved:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, self.options.subject.fit)
-
-    def _tracking_state(self, model: BodyModel, first: int | None = None, anchor: FitResult | None = None,
-                        built: BodyModel | None = None) -> TrackingState:
-        """The state of tracking a sequence with `model`: its fits take the model with the
-        hands of ``options.hand_reach`` (by default as the silhouettes' source asks), the
-        silhouettes are guided by `model` itself. The anchor (the fit at frame `first` of
-        the subject's model as built, `built`, by default `model`; ``options.wrists`` may
-        have given `model` wrists since) is fitted again with the model the fits take."""
-        built = built or model
-        fitted = with_hands(model, self._hand_reach)
-        if anchor is not None and fitted is not built:
-            target = make_target(self.hull(first, (built, anchor.pose)))
-            anchor = fit(fitted, target, anchor.pose.carried(built, fitted), self.options.subject.fit)
-        return TrackingState(fitted, self.options, anchor, guide=model)
-
-    def _track(self, state: TrackingState, result: TrackingResult, frame: int) -> None:
-        """Fit one frame, judge it, search when needed, and record it, by the state's
-        options. Its silhouettes are guided by the predicted pose when the frame before
-        was tracked (after a failure, a wrong prediction would hide the person it missed),
-        with each elbow in doubt drawn as it was too (``TrackerOptions.elbow_doubt``)."""
-        starts = state.starts(result, frame)
-        follows = frame > 0 and not result.failed[frame - 1]
-        before = state.as_before(starts[0]) if starts and follows else None
-        prior = (state.guide, starts[0], before) if starts and (follows or state.anchor_only(result, frame)) else None
-        try:
-            surface = self.carver.carve(frame, prior, state.options.hull_doubt)[0]
-        except ValueError as e:  # no usable view in this frame
-            self.problems.add(frame, str(e))
-            result.fail(frame)
-            return
-        t0 = time.perf_counter()
-        target = make_target(surface)
-        best, iterations = None, 0
-        options = state.options
-        first = options.fit if options.quick_fit is None else options.quick_fit
-        for start in starts:
-            fitted = self._fit_from(state, target, start, first)
-            iterations += fitted.iterations
-            if best is None or quality(fitted) > quality(best):
-                best = fitted
-            if state.good(best):
-                break
-        if best is not None and not state.good(best) and options.quick_fit is not None:
-            fitted = self._fit_from(state, target, starts[0], options.fit)  # the paper's schedule
-            iterations += fitted.iterations
-            if quality(fitted) > quality(best):
-                best = fitted
-        girdle = None if best is None else state.search.girdle_start(best.pose)
-        if girdle is not None:
-            girdle_options = first if options.girdle_fit is None else options.girdle_fit
-            fitted = self._fit_from(state, target, girdle, girdle_options)
-            iterations += fitted.iterations
-            if state.takes_girdle_fit(best, fitted):
-                best = fitted
-        held = None if best is None or not starts else state.hinges_held(starts[0], best.pose)
-        if held is not None:
-            fitted = self._fit_from(state, target, starts[0], first, held)
-            iterations += fitted.iterations
-            if quality(fitted) >= quality(best) - options.hinge_tolerance:
-                best = fitted
-        if before is not None and best is not None:
-            # An elbow turned fast in the frames before: the forearm as it was, held so,
-            # stands when it explains the hull clearly better.
-            fitted = self._fit_from(state, target, before, first, state.held_as_before())
-            iterations += fitted.iterations
-            if quality(fitted) > quality(best) + options.hinge_tolerance:
-                best = fitted
-        state.age_doubts(None if best is None else best.pose)
-        if best is not None:
-            state.doubt_turns(result, frame, best.pose)
-        bar = state.floor()  # what a fit of this frame must reach to stand without a search
-        status = GOOD if best is not None and state.good(best) else FAILED
-        passed = status == GOOD  # without a search
-        if status == FAILED and options.reacquire:
-            found = best
-            lost = [] if best is None else state.lost_chains(best)
-            if lost and quality(best) >= state.floor():
-                # Only limbs are lost: re-sample those first, the whole search if that fails.
-                found, spent = state.search.resample(target, best, lost)
-                iterations += spent
-            if found is None or not state.good(found):
-                # The search keeps `found` unless it finds better.
-                found, spent = state.search.search(target, surface, state.recent(result, frame), state.anchor_pose,
-                                                   found)
-                iterations += spent
-            best, status = state.decide(best, found)
-            if status == RECOVERED and state.refit_found:
-                polished = self._fit_from(state, target, best.pose, options.fit)
-                iterations += polished.iterations
-                if quality(polished) > quality(best):
-                    best = polished
-        if best is None:  # nothing to start from and no search
-            result.fail(frame)
-            return
-        result.record(frame, best, status, iterations, bar)
-        if status != FAILED:
-            state.remember_fit(best)
-        self.seconds["fit"] += time.perf_counter() - t0
-        if passed:
-            self.segmenter.teach(frame, state.guide, best.pose)
-
-    def _fit_from(self, state: TrackingState, target, start: PoseParameters, options: FitOptions,
-                  model: BodyModel | None = None) -> FitResult:
-        """A tracking fit from `start` (of `model`, by default the state's), whose joints
-        are held near it by the motion prior (``TrackerOptions.motion_sigma``)."""
-        sigma = state.options.motion_sigma
-        prior = None if sigma is None else PosePrior(start.theta, np.full(state.model.n_dofs, sigma),
-                                                     state.options.motion_prior_distance)
-        return fit(model or state.model, target, start, options, prior=prior)
 
     def _checkpoint(self, out: Path, result: TrackingResult, next_frame: int, settings: dict, carried: dict,
                     learnt: dict) -> None:
@@ -476,7 +365,7 @@ class Tracker:
                 arrays = {k: z[k] for k in z.files if k not in ("cameras", "settings")}
             self.segmenter.relearn(arrays)
             result, start = TrackingResult.from_arrays(BodyModel.load(out / "model"), arrays), int(arrays["next_frame"])
-            state = self._tracking_state(result.model)
+            state = self.fitter.state(result.model)
             state.resume(arrays, result, start)
         except ResultsError:
             raise
