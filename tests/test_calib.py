@@ -146,11 +146,11 @@ def test_opencv_files_and_sizes_from_the_frames(tmp_path):
 def test_volume_given_on_the_command_line_and_an_empty_hull_names_it(tmp_path, capsys):
     seq = tmp_path / "seq"
     assert main(["synth", str(seq), "--frames", "1", "--cameras", "4", "--subject", "short"]) == 0
-    tracker = Tracker(Sequence(seq), bounds=((2.0, 2.0, 0.0), (3.0, 3.0, 2.0)))
+    tracker = Tracker(Sequence(seq), volume=((2.0, 2.0, 0.0), (3.0, 3.0, 2.0)))
     with pytest.raises(HullError, match=r"capture volume \(2.00, 2.00, 0.00\)–\(3.00, 3.00, 2.00\) m"):
         tracker.hull(0)
     with pytest.raises(HullError, match="x0 < x1"):
-        Tracker(Sequence(seq), bounds=((1, 0, 0), (0, 1, 1)))
+        Tracker(Sequence(seq), volume=((1, 0, 0), (0, 1, 1)))
     assert main(["track", str(seq), "--out", str(tmp_path / "o"), "--volume", "2,2,0,3,3,2"]) == 2
     captured = capsys.readouterr()
     assert "capture volume (2.00, 2.00, 0.00)–(3.00, 3.00, 2.00) m (given)" in captured.out

@@ -14,6 +14,7 @@ from hullcap import Sequence, Tracker, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._frame_fitter import FrameFitter
+from hullcap._subject_builder import SubjectBuilder
 from hullcap._synth import synthesize
 from hullcap.errors import CalibrationError, OptionsError, ResultsError, SequenceError
 
@@ -401,7 +402,7 @@ def test_an_unwritable_or_full_folder_is_refused_before_any_work(clean, tmp_path
     from hullcap import _run_folder
     from hullcap._files import atomic_write
 
-    monkeypatch.setattr(Tracker, "_subject", lambda *a: pytest.fail("the subject's model was built"))
+    monkeypatch.setattr(SubjectBuilder, "build", lambda *a: pytest.fail("the subject's model was built"))
     # A folder that cannot be made (a file stands where it would go): what a read-only disk
     # gives too, without depending on who runs the test (root writes anywhere).
     (tmp_path / "a file").write_text("")

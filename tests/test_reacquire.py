@@ -11,6 +11,7 @@ from hullcap._frame_fitter import FrameFitter
 from hullcap._motions import motion_poses
 from hullcap._reacquire import PoseSearch
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, TrackingResult
+from hullcap._subject_builder import SubjectBuilder
 from hullcap._synth import SUBJECTS, render_motion
 from hullcap._take import limits_held_line
 from hullcap.export import write_report
@@ -172,7 +173,7 @@ def test_the_girdle_fit_stands_within_its_tolerance_in_tracking_and_only_when_be
     with pytest.raises(OptionsError):
         SearchOptions(girdle_tolerance=-0.01)
 
-    # The window's state, as Tracker._refine builds it.
+    # The window's state, as SubjectBuilder._track_window builds it.
     seen = []
     monkeypatch.setattr(FrameFitter, "track", lambda self, state, *args: seen.append(state.search.options))
     seq_path, _, _ = render(tmp_path / "seq")
@@ -199,29 +200,30 @@ def test_the_calibration_window_keeps_its_prior_through_poor_fits(tmp_path, monk
             corners = cam.project(crate)[0].round().astype(np.int32)
             cv2.fillConvexPoly(mask, cv2.convexHull(corners), 255)
             cv2.imwrite(str(path), mask)
-    carved, hulls = [], []
-    carve, hull = Carver.carve, Tracker.hull
+    carved, hulls, window_done = [], [], []
+    carve, track_window = Carver.carve, SubjectBuilder._track_window
 
     def spy_carve(self, frame, prior=None, doubt=None):
-        carved.append((frame, prior is not None))
+        (hulls if window_done else carved).append((frame, prior is not None))
         return carve(self, frame, prior, doubt)
 
-    def spy_hull(self, frame, prior=None):
-        hulls.append(frame)
-        return hull(self, frame, prior)
+    def spy_track_window(self, *args):
+        window = track_window(self, *args)
+        window_done.append(True)
+        return window
 
     monkeypatch.setattr(Carver, "carve", spy_carve)
-    monkeypatch.setattr(Tracker, "hull", spy_hull)
+    monkeypatch.setattr(SubjectBuilder, "_track_window", spy_track_window)
     options = TrackerOptions(calibration_seconds=0.4, calibration_frames=4, min_quality=0.75)
     window = round(options.calibration_seconds * seq.fps)  # 12 frames, the crate's among them
-    _, first, _ = Tracker(seq, options=options)._subject(FRAMES, show_progress=False)
+    _, first, _ = Tracker(seq, options=options).subject.build(FRAMES, show_progress=False)
     assert first == 0
     tracked = {}
-    for f, with_prior in carved[1:]:  # the first frame, then the window in order, then the frames used
+    for f, with_prior in carved[1:]:  # the first frame, then the window in order
         tracked.setdefault(f, with_prior)
     assert [f for f in tracked if f < window] == list(range(window)), carved
     assert all(tracked[f] for f in range(1, window)), carved
-    assert hulls and not set(hulls) & set(poor), hulls
+    assert hulls and not {f for f, _ in hulls} & set(poor), hulls
 
 
 def test_a_search_ranks_at_the_resolution_of_the_stages():
@@ -246,7 +248,7 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
     seq_path, truth, _ = render(tmp_path / "seq", JUMP, (0.7, 0.7, 0.0))
     options = TrackerOptions(calibration_seconds=1.0)  # the window holds the jump
     calls, in_window = [], []
-    refine, search, fit_from = Tracker._refine, PoseSearch.search, FrameFitter.fit_from
+    refine, search, fit_from = SubjectBuilder.refine, PoseSearch.search, FrameFitter.fit_from
 
     def spy_refine(self, *args):
         in_window.append(True)
@@ -264,7 +266,7 @@ def test_the_calibration_window_searches_as_tracking_does_and_refits_what_it_fin
         calls.append(("fit", bool(in_window), fit_options, start))
         return fit_from(self, state, target, start, fit_options)
 
-    monkeypatch.setattr(Tracker, "_refine", spy_refine)
+    monkeypatch.setattr(SubjectBuilder, "refine", spy_refine)
     monkeypatch.setattr(PoseSearch, "search", spy_search)
     monkeypatch.setattr(FrameFitter, "fit_from", spy_fit_from)
     result = Tracker(Sequence(seq_path), options=options).run(tmp_path / "out", show_progress=False)

@@ -155,14 +155,29 @@ class Segmenter:
             if cam.name not in self.no_background:
                 self.problems.add(frame, error.what, cam.name, error.file)
 
-    def prepare(self) -> None:
-        """Build each camera's background model now (when the masks are not given), and
-        record every camera left out for want of one."""
-        if self.given:
-            return
-        self._segmenters()
-        for name, e in self.no_background.items():
-            self.problems.add(None, f"left out of every frame: no usable background image ({e.what})", name, e.file)
+    def prepare(self, frames: int | None = None) -> int:
+        """The start-up checks of a run of the first `frames` frames (``None``: all), and how
+        many frames it tracks: every camera's frames on disk against ``meta.json``
+        (recorded; frames no camera has are not tracked), every camera's image size against
+        its calibration, and each camera's background model built now (when the masks are
+        not given), with every camera left out for want of one recorded."""
+        seq = self.sequence
+        n = len(seq) if frames is None else min(frames, len(seq))
+        counts = seq.frame_counts(silhouettes=self.given)
+        on_disk = ", ".join(f"{name} {k}" for name, k in counts.items())
+        if any(k < len(seq) for k in counts.values()):
+            self.problems.add(None, f"meta.json says {len(seq)} frames, on disk: {on_disk}; "
+                                    f"a camera's missing frames leave its view out")
+        elif any(k > len(seq) for k in counts.values()):
+            self.problems.add(None, f"meta.json says {len(seq)} frames, on disk: {on_disk}; "
+                                    f"only the first {len(seq)} are tracked")
+        if not self.given:
+            seq.check_image_sizes()
+            self._segmenters()
+            for name, e in self.no_background.items():
+                self.problems.add(None, f"left out of every frame: no usable background image ({e.what})", name,
+                                  e.file)
+        return max(1, min(n, max(counts.values())))
 
     def _segmenters(self):
         """The background models (None for a camera without a usable background image, in

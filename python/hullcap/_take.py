@@ -161,14 +161,14 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
                                      use_silhouettes=not options.ignore_silhouettes,
                                      refine_joints=options.refine_joints, hand_reach=options.hand_reach,
                                      wrists=options.wrists)
-    tracker = Tracker(seq, model=body, options=tracker_options, bounds=options.volume)
-    say(f"{seq}: capture volume {format_bounds(tracker.bounds)}"
+    tracker = Tracker(seq, model=body, options=tracker_options, volume=options.volume)
+    say(f"{seq}: capture volume {format_bounds(tracker.volume)}"
         + (" (given)" if options.volume else " (every camera sees it; --volume to change)"))
     spread = surround(seq.cameras, axes_meeting_point(seq.cameras))
     if spread < MIN_SURROUND:
         warn(f"the cameras surround the person over only {spread:.0f}°: the visual hull reaches far along the "
              f"viewing direction and tracking may fail (hullcap calib show)")
-    if len(seq.cameras) < FEW_CAMERAS and not tracker.given_silhouettes:
+    if len(seq.cameras) < FEW_CAMERAS and not tracker.segmenter.given:
         warn(f"{len(seq.cameras)} cameras and background subtraction: on the development set's adults filmed by "
              f"4 of their cameras, limbs the masks missed were lost for seconds, 34-48 mm mean joint error against "
              f"22-36 mm from exact masks (docs/accuracy.md, 'Fewer cameras'); a segmenter's masks in "

@@ -36,7 +36,7 @@ class TrackingState:
         self.guide = guide or model
         self.options = options
         # The search fits its candidates with `search_fit` when given; a pose it finds is
-        # then fitted again with the options' own fit (the subject's window, Tracker._refine).
+        # then fitted again with the options' own fit (the subject's window, SubjectBuilder._track_window).
         self.search = PoseSearch(model, search_fit or options.fit, options.search, options.seed)
         self.refit_found = search_fit is not None
         self.chains = chain_links(model)
