@@ -49,79 +49,42 @@ __all__ = ["GuidedOptions", "ColourModel", "TextureTest", "GuidedSegmenter", "di
 class GuidedOptions:
     """Numbers of the model-guided silhouettes (log-odds are natural logarithms).
 
+    Why each default is what it is, with the runs behind it: the accuracy notebook
+    (docs/notebooks/accuracy.md, "Why the tracker's defaults are what they are").
+
     Attributes:
         prior: log-odds of the prior deep inside (+) or far outside (−) the predicted
-            silhouette: 2 ≈ 7 to 1. It holds a pixel the background test alone calls
-            background (at most 3 noise spreads × `background_weight` = 0.9) but yields to
-            colour that is clearly the background's (log-ratio below −1.1): the prediction
-            is itself wrong by a limb at times, and a limb kept where the colours say floor
-            is carved into the hull and confirms itself. On the development set, prior 6
-            gave 31.9 mm mean raw MPJPE from colour frames, 3 gave 30.0, 2 gave 29.3
-            (docs/notebooks/accuracy.md).
+            silhouette: 2 ≈ 7 to 1.
         band: half-width of the band over which the prior goes from 0 at the predicted
-            outline to full, as a fraction of the person's image height (0.04: 10 px at
-            250 px tall, about a frame's prediction error of a limb at `band_frame_rate`).
-        outer_band: the same outside the predicted outline (``None``: `band`), where a
-            limb that moved further than predicted lies.
-        band_frame_rate: the frame rate (frames/s) the bands hold for. The prediction is
-            off by more the longer the time between frames, so at a lower rate the outer
-            band widens in proportion to that time (:meth:`for_frame_rate`): a limb
-            beyond the prediction is then held back less. The inner band stays, so that a
-            thin limb the prediction has keeps its full prior (trousers the colour of the
-            floor are held by nothing else; widening both lost d01's last frames at 15
-            frames/s). With the bands of 30 frames/s, the development set tracked from
-            every third frame (10 frames/s) lost 36 of d01's 65 frames and folded a
-            forearm of d02 for good; with the outer band widened, 1 frame, and 30.5
-            against 40.2 mm (docs/notebooks/accuracy.md, "Fewer frames a second").
+            outline to full, as a fraction of the person's image height (0.04: 10 px at 250
+            px tall, about a frame's prediction error of a limb at `band_frame_rate`).
+        outer_band: the same outside the predicted outline (``None``: `band`), where a limb
+            that moved further than predicted lies.
+        band_frame_rate: the frame rate (frames/s) the bands hold for.
         background_weight: weight of the statistical test's evidence for the background
             (negative evidence, at most 3 spreads) against its evidence for the subject.
         colour_weight: weight of the colour log-ratio (clipped to ±4).
         bins: colour histogram bins per channel (16: 16 grey levels per bin).
         scene_share: share of the whole empty scene's colours in the background's colour
-            model (the rest: those learnt near the fitted model). Learnt near the person
-            alone, it misses the colours of the room that never lay near them; where the
-            subject wears such a colour (a wooden panel on the 4-camera development
-            sequence) it reads as subject, the background test's certainty counts only
-            `background_weight` times, and the panel filled its part of the guided region
-            (one view's IoU 0.28). Below 1: the empty scene lacks colours the band has
-            (the subject's shadow), which must stay background. Half and half raised the
-            guided masks' mean IoU on every development sequence (d04 0.829 → 0.931, d03 0.864 → 0.936;
-            docs/notebooks/accuracy.md, "Silhouettes on the development set").
+            model (the rest: those learnt near the fitted model).
         learn_margin: a pixel teaches the subject's colours when it is this far inside the
-            fitted model's outline, the background's when this far outside and within
-            four such margins of it (fractions of the person's image height).
+            fitted model's outline, the background's when this far outside and within four
+            such margins of it (fractions of the person's image height).
         smooth: standard deviation (pixels) of the smoothing of the log-odds.
-        reach: beyond this many image heights of the person from its predicted box, only
-            the statistical test decides.
-        min_blob, max_hole: fractions of the person's image area: smaller foreground
-            specks are dropped, smaller enclosed holes filled.
-        texture_weight: log-odds of the texture test at its most certain; 0 (the
-            default) leaves it out. Where the background is textured the test is right
-            for about 98 pixels in 100 on every development sequence, log-odds about 4,
-            so 3 (more than the prior: a pixel of the predicted body through which the
-            floor's joints still show is then background, one beside it that hides them
-            subject) is the value to use. It raises the guided masks' IoU on all four
-            development sequences (d01 0.839 → 0.851, d02 0.931 → 0.944), but tracking
-            from colour frames came out worse on average, twice (docs/notebooks/accuracy.md, "Silhouettes
-            on the development set"), so it is off until that is understood.
+        reach: beyond this many image heights of the person from its predicted box, only the
+            statistical test decides.
+        min_blob, max_hole: fractions of the person's image area: smaller foreground specks
+            are dropped, smaller enclosed holes filled.
+        texture_weight: log-odds of the texture test at its most certain (0: no texture test).
         texture_window: side (pixels, odd) of the window the correlation is taken over.
         texture_min_std: the background's grey-level standard deviation over the window
-            below which it has no texture to hide and the test says nothing (5: twice
-            the pixel noise assumed by the background model).
-        texture_seen, texture_hidden: correlation at or above which the background counts
-            as seen (−`texture_weight`), at or below which as hidden (+), linear between.
+            below which it has no texture to hide and the test says nothing (5: twice the
+            pixel noise assumed by the background model).
+        texture_seen, texture_hidden: correlation at or above which the background counts as
+            seen (−`texture_weight`), at or below which as hidden (+), linear between.
         sure_background: log-odds (after smoothing) at or below −this that call a pixel
-            background for sure: the tolerant hull (``TrackerOptions.hull_tolerance``)
-            never overrules the view there (:meth:`GuidedSegmenter.segment`). A ring of
-            views bounds each limb by a polygon whose sides are one view's tangents, and
-            what lies outside one side is left out by that view alone: overruled
-            wherever the prediction is near, that is phantom volume around the whole
-            body (at a standing frame of the development set, 19 % of the hull's
-            vertices 3 cm or more off the true surface, against 1 % from exact masks).
-            There the view sees the room with certainty; where it missed the subject's
-            trousers, the colour of the floor, it was unsure (log-odds about −1). 2: odds
-            of 7 to 1 for the background after the prior's own 7 to 1 for the subject
-            were counted (docs/notebooks/accuracy.md, "The tolerant hull's phantom volume").
+            background for sure: the tolerant hull (``TrackerOptions.hull_tolerance``) never
+            overrules the view there (:meth:`GuidedSegmenter.segment`).
     """
 
     prior: float = 2.0

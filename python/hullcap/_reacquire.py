@@ -67,59 +67,34 @@ CHAINS = {
 class SearchOptions:
     """Numbers of the search.
 
+    Why each default is what it is, with the runs behind it: the accuracy notebook
+    (docs/notebooks/accuracy.md, "Why the tracker's defaults are what they are").
+
     Attributes:
-        headings: headings about the vertical each library pose is tried at, evenly
-            spaced from the last good heading.
+        headings: headings about the vertical each library pose is tried at, evenly spaced
+            from the last good heading.
         keep: candidates fitted in full after scoring.
         chain_samples: joint-angle draws per limb chain.
-        screen: candidates a rough scoring passes on to the scoring proper (the pose to
-            beat always goes on too); 0 scores every candidate in full. Ranking the
-            candidates was most of a search's time, and on the development set the
-            searches confirm the tracked fit (none re-acquired a frame in the table of
-            record), their candidates scored only to be set aside. The scoring proper
-            gives each candidate that passes the numbers it would get alone, so only a
-            candidate the screen drops can change a search's outcome. In 24 rankings of
-            four d01 frames' searches the tracked fit came first every time (nothing to
-            fit), and the screen of 8 passed on both candidates ranked next to it in 21,
-            one of them in 1 and neither in 2.
+        screen: candidates a rough scoring passes on to the scoring proper (the pose to beat
+            always goes on too).
         screen_coarse: the rough scoring counts a ``screen_coarse``-th of the model points,
-            hull samples and model vertices of the scoring proper (with the default fit
-            187 model points and hull samples instead of 750, 375 vertices instead of
-            1500): 0.27 of its time on d01's searches.
+            hull samples and model vertices of the scoring proper.
         screen_margin: nor does the screen pass on a candidate whose rough score lies more
-            than this below the pose to beat's (a fraction of points, like the quality);
-            when none is left the pose to beat stands without the scoring proper. The two
-            scores differ: over the 102 rankings of the development set's colour runs
-            (d01, d03, d04; d02 has none) and of a re-acquisition after a jump of a metre,
-            5 280 candidates, a candidate's score proper stood at most 0.066 further above
-            the pose to beat's than its rough score did (on the development set at most
-            0.050, 0.034 at the 99.9th percentile), and no candidate that came out above
-            the pose to beat had a rough score under it. 0.1 leaves a margin over that;
-            ``math.inf`` screens by rank alone.
-        recent: recent good poses taken into the library (the newest, and others spaced
-            back over about a second).
+            than this below the pose to beat's (a fraction of points, like the quality).
+        recent: recent good poses taken into the library (the newest, and others spaced back
+            over about a second).
         girdle_share: the part of an arm's elevation above the horizontal that the shoulder
             girdle (the clavicle's elevation) takes in :meth:`PoseSearch.girdle_start`'s
             start: 1/3, the scapulohumeral rhythm (above the first 30° of elevation the
-            shoulder joint turns 2° for each degree of the girdle; Inman, Saunders and
-            Abbott 1944). 0 turns that start off.
-        girdle_margin: that start is tried when the clavicle of a raised arm lies more
-            than this below its share (radians).
+            shoulder joint turns 2° for each degree of the girdle).
+        girdle_margin: that start is tried when the clavicle of a raised arm lies more than
+            this below its share (radians).
         girdle_turn: the fit from that start stands for the same arms reached another way
             only while each arm's line (shoulder to wrist) stays within this angle of the
-            fit it started from (radians). Where the girdle start wins on the development
-            set the lines turn 0–2°; a fit from it that turned a line 57° (d04, a wrist
-            34 cm off for a quality 0.002 higher) had found another pose, which is the
-            search's to propose, not the rhythm's.
-        girdle_tolerance: and while its quality is at most this much below the fit from
-            the prediction (a fraction of points, like the quality): along a straight arm
-            the hull hardly tells the two apart (on six overhead frames of d03 from exact
-            masks the tracked fit explained 0.8301 of the hull, the same arms with the
-            clavicles at 20° and 40° 0.8233 and 0.8271, their joints nearer the truth:
-            27.7 and 26.6 mm against 28.2), so within that the rhythm decides. 0 keeps
-            the start only when it explains the hull better. The first seconds tracked to
-            build the subject's model use 0: their poses make the model, so each stands on
-            the hull alone.
+            fit it started from (radians).
+        girdle_tolerance: and while its quality is at most this much below the fit from the
+            prediction (a fraction of points, like the quality): along a straight arm the
+            hull hardly tells the two apart, so within that the rhythm decides.
     """
 
     headings: int = 8

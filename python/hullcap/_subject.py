@@ -40,6 +40,9 @@ __all__ = ["SubjectOptions", "SubjectFit", "build_subject", "place_model", "bent
 class SubjectOptions:
     """Every number the subject model depends on.
 
+    Why each default is what it is, with the runs behind it: the accuracy notebook
+    (docs/notebooks/accuracy.md, "Why the tracker's defaults are what they are").
+
     Attributes:
         length_sigma: prior standard deviation of a segment's length relative to the
             template at the subject's overall scale (0.15 = 15 %): adult segment-length
@@ -52,76 +55,47 @@ class SubjectOptions:
             against the template's, metres: only frames where the joint bends move it.
         scale_sigma: prior standard deviation of the overall scale against the template
             (0.5: a 1.75 m template covers children of 0.9 m to adults of 2.6 m within 1σ).
-        prior_distance: metres of pair distance one prior standard deviation is worth
-            (see ``hullcap_icp::ShapePrior``): 3 mm, about a voxel's error, so that what
-            the hulls do show wins over the prior.
-        stature: the heights (metres) a hull of the calibration pose may have: a small
-            child to a very tall adult. A hull outside it is not a person standing in the
-            calibration pose (noise, a prop, half a body), and no model is built from it.
-        calibration_limits: joint limits (degrees, by DOF name; a name without ``l_``/``r_``
-            means both sides) while the model is placed in the first hull, which shows the
-            calibration pose: a T- or A-pose, elbows and knees straight, arms spread, legs
-            apart, feet flat and forward. Without them a limb that a silhouette misses can
-            fold onto its neighbour at no cost (a model point without a partner costs
-            nothing), and a body facing backwards fits a T-pose almost as well as the right
-            one once its ankles turn the feet round: the feet are what tells front from
-            back. Frames of motion are fitted with the model's own limits.
+        prior_distance: metres of pair distance one prior standard deviation is worth (see
+            ``hullcap_icp::ShapePrior``): 3 mm, about a voxel's error, so that what the
+            hulls do show wins over the prior.
+        stature: the heights (metres) a hull of the calibration pose may have: a small child
+            to a very tall adult.
+        calibration_limits: joint limits (degrees, by DOF name; without ``l_``/``r_``: both
+            sides) while the model is placed in the first hull, which shows the calibration
+            pose.
         headings: placements tried in the first hull, evenly spaced about the vertical.
         keep: the best placements (by coverage and inliers after a quick fit) refined.
         iterations: most Levenberg–Marquardt iterations of the shape fit.
         rest_mesh: ``"template"`` (the template at the fitted shape) or ``"hull"`` (the
             first hull brought to the rest pose, the paper's way).
-        fit: options of the pose fits and of the shape fit; the two-sided energy matters
-            here: only hull→model pairs pull a limb that is too short out to the hull's end.
+        fit: options of the pose fits and of the shape fit.
         centre_search: ``(joint, axis)`` of each joint centre :func:`search_centres` places
             from frames where the joint bends, by the shape parameter
-            ``centre:<joint>:<axis>`` (mirrored sides move together). The knee along the
-            leg (z at rest): on the development set the fit's quality over frames of bent
-            knees peaks within a centimetre of the true centre whenever the knees bend by
-            45° or more. Not the ball joints: at the hip and the shoulder the quality's
-            peak and the truth's joint disagree by 2–3 cm (the surrounding skin does not
-            move as one link), so their centres stay with the shape fit's prior. The elbow
-            along the arm (``("elbow", "x")``) works the same way on our synthetic
-            bodies, but no development sequence bends an elbow, so it is not searched
-            unless asked: a tracked arm that bends where the person's does not (a few
-            frames of a poor fit) would place it by noise.
-        centre_range, centre_step: the moves tried, metres: every `centre_step` within
-            ± `centre_range` (a person's knee lies within 4 cm of the template's
-            proportions along a limb).
+            ``centre:<joint>:<axis>`` (mirrored sides move together).
+        centre_range, centre_step: the moves tried, metres: every `centre_step` within ±
+            `centre_range` (a person's knee lies within 4 cm of the template's proportions
+            along a limb).
         centre_frames: the frames of most bending refitted for each move.
         centre_min_bend: a frame serves the search only when the joint bends at least this
             much (radians) on one side at least: a straight limb says nothing of where it
-            would bend, and a slightly bent one too little. On the development set from
-            exact masks the quality's peak lies within a centimetre of the true knee on
-            every sequence whose knees bend by 45° or more; d03's knees never bend more
-            than 41°, and there the profile rose to the range's edge
-            (4 cm off) from both colour frames and exact masks.
-        centre_min_gain: the least rise of mean quality over keeping the centre where it
-            is for a move to be made (quality is a fraction; a frame's refits differ by
-            about 0.001 for reasons that have nothing to do with the centre).
+            would bend, and a slightly bent one too little.
+        centre_min_gain: the least rise of mean quality over keeping the centre where it is
+            for a move to be made (a fraction of points).
         centre_samples: the hull samples (``FitOptions.reverse_points``) of the search's
-            refits, on which half of their quality, the coverage, is measured. The moves'
-            gains are a few thousandths, and with the fit's 1500 samples (about every
-            20th vertex of a hull) a different draw of the same hull changes them that
-            much: on the synthetic demo the best move gained 0.00187 with one vertex order
-            and 0.00202 with another, on either side of `centre_min_gain`. A sampled
-            fraction's noise falls as one over the square root of the samples: four times
-            the samples halve it.
-        surface_reach: the subject's own surface (:func:`fitted_surface`): each rest
-            vertex moves along its normal by the median, over frames of the first
-            seconds, of its distance to the hull along that normal, where the hull lies
-            within this many metres (3 cm: beyond the offsets the development set's bodies
-            take, nine in ten within 8.5 mm, and under a forearm's radius, so that a vertex
-            pairs with its own part of the hull). ``None`` keeps the template's surface at
-            the fitted shape.
+            refits, on which half of their quality, the coverage, is measured.
+        surface_reach: the subject's own surface (:func:`fitted_surface`): each rest vertex
+            moves along its normal by the median, over frames of the first seconds, of its
+            distance to the hull along that normal, where the hull lies within this many
+            metres (under a forearm's radius, so that a vertex pairs with its own part of the
+            hull).
         surface_angle: the largest angle (radians) between a vertex's normal and its hull
             partner's.
-        surface_share: a vertex moves only when at least this share of the frames gave it
-            a partner (a part the hull keeps losing, the fingers, stays as it is).
+        surface_share: a vertex moves only when at least this share of the frames gave it a
+            partner (a part the hull keeps losing, the fingers, stays as it is).
         surface_smoothing: passes of smoothing over the mesh (each vertex half its own
-            offset, half its neighbours' mean): a hull's own bumps are a voxel (1 cm)
-            wide, and ten passes spread an offset over a few centimetres of the template
-            (its edges are 1.6 cm long on average).
+            offset, half its neighbours' mean): a hull's own bumps are a voxel (1 cm) wide,
+            and ten passes spread an offset over a few centimetres of the template (its
+            edges are 1.6 cm long on average).
         surface_frames: the frames of the first seconds measured, spread evenly over them.
     """
 
@@ -308,7 +282,7 @@ def search_centres(model: BodyModel, joint: str, axis: str, targets, poses,
     profile, where every move explains the frames about as well, is noise, and noise must
     not move a joint. The gain is not also weighed against its spread over the frames:
     near the peak the profile is flat by nature, so that test decided by a frame or two
-    whether a clear peak was taken or ignored (docs/notebooks/accuracy.md)."""
+    whether a clear peak was taken or ignored."""
     options = options or SubjectOptions()
     if not targets:
         return model, 0.0

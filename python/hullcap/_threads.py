@@ -8,10 +8,8 @@ do their work without the GIL.
   into it, its guided mask, the hull's dilated prior and distance images), are processed
   on a few threads (:func:`over_views`).
 - Whole fits side by side: independent fits (a search's candidates, the knee search's
-  refits) run one per core, each on one engine thread (:func:`over_fits`). One fit
-  spread over two cores waits at its serial steps and between its parallel loops: d01's
-  knee search (72 refits) takes 7.9 s with two at a time against 10.3 s with one after
-  another on both cores (docs/notebooks/performance.md).
+  refits) run one per core, each on one engine thread (:func:`over_fits`): one fit
+  spread over two cores waits at its serial steps and between its parallel loops.
 
 The results are those of the same calls made in order, one after another
 (tests/test_tracking.py checks a run with and without).

@@ -3,7 +3,7 @@
 //! [`for_each_chunk_mut`](crate::for_each_chunk_mut) starts its threads on
 //! `std::thread::scope` and joins them on every call. A fit makes about nine such calls
 //! per iteration and two hundred per frame, and on a 2-core machine starting and joining
-//! a thread costs about 40 µs (docs/notebooks/performance.md): a sixth of a fit. [`with_workers`]
+//! a thread costs tens of microseconds, a large part of a fit. [`with_workers`]
 //! starts the threads once, on one `std::thread::scope` around the whole stretch, and
 //! every `for_each_chunk_mut` made on the calling thread inside it hands its chunks to
 //! them instead: the same chunks, so the same results to the bit, each claimed by

@@ -44,7 +44,7 @@ pub(crate) struct Correspondences {
 /// Each query's answer at the last search of a fit, as hints for the next
 /// ([`NormalKdTree::query_hinted`]): between iterations the model moves little, and a
 /// search bounded from the start by the last partner's distance skips the cells that
-/// cannot hold a nearer key (a d01 fit 0.947× the time, docs/notebooks/performance.md). The pairs
+/// cannot hold a nearer key. The pairs
 /// are the same with hints or without.
 ///
 /// A model point whose posed position and normal are those of its last search, to the

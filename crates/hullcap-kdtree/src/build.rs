@@ -32,9 +32,8 @@ impl Default for BuildOptions {
 }
 
 /// Subtrees with fewer points than this are built on the thread that reaches them: below
-/// it, starting a thread costs about what it saves. The tree of a fit's 3 000 spread
-/// vertices, rebuilt at every iteration, took 241 µs with its halves on two threads and
-/// 176 µs on one (docs/notebooks/performance.md).
+/// it, starting a thread costs about what it saves (a fit's tree of a few thousand
+/// vertices, rebuilt at every iteration, is faster on one thread).
 const PARALLEL_MIN_POINTS: usize = 4096;
 
 /// One node of the tree, inner or leaf, 24 bytes.
