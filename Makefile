@@ -54,6 +54,7 @@ paper: $(ENGINE)
 # The CLI reference, generated from the parser.
 docs: $(ENGINE)
 	COLUMNS=100 $(PY) -c "from hullcap._cli import reference; print(reference())" > docs/cli.md
+	$(PY) -c "from hullcap._take import options_page; print(options_page())" > docs/options.md
 
 test-lowest:
 	$(MAKE) test VENV=.venv-lowest LOCK=requirements/lowest.txt

@@ -38,7 +38,6 @@ import argparse
 import json
 import multiprocessing
 import os
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
@@ -46,13 +45,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import devset  # noqa: E402
-from hullcap._body import BodyModel  # noqa: E402
-from hullcap._carver import Carver  # noqa: E402
-from hullcap._results import RECOVERED, STATUS_NAMES  # noqa: E402
-from hullcap._sequence import MIN_CAMERAS, Sequence  # noqa: E402
-from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
+import devset
+from hullcap._body import BodyModel
+from hullcap._carver import Carver
+from hullcap._results import RECOVERED, STATUS_NAMES
+from hullcap._sequence import MIN_CAMERAS, Sequence
+from hullcap._tracking import Tracker, TrackerOptions
 
 
 class TrueSurfaceCarver(Carver):
@@ -77,7 +75,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     # d01_bend-colour, d01_bend-every3-colour, d01_bend-cams4-colour
     run_dir = out / f"{seq_path.name}{'' if kept is None else f'-cams{len(kept)}'}-{mode}"
     truth = devset.Truth.load(devset_dir, seq_path)
-    options = replace(options, use_silhouettes=mode != "colour")
+    options = replace(options, ignore_silhouettes=mode == "colour")
     model = None if models_from is None else BodyModel.load(models_from / run_dir.name / "model")
     if mode == "surface":
         tracker = Tracker(seq, model=model, options=replace(options, hand_reach=1.0))

@@ -27,18 +27,16 @@ surface, the fitted model's surface and both skeletons (docs/raised_arm.png).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import devset  # noqa: E402
-from hullcap._fitting import PoseParameters, fit, make_target, quality  # noqa: E402
-from hullcap.export import load_result  # noqa: E402
-from hullcap._sequence import Sequence  # noqa: E402
-from hullcap._subject import with_hands  # noqa: E402
-from hullcap._tracking import Tracker, TrackerOptions  # noqa: E402
+import devset
+from hullcap._fitting import PoseParameters, fit, make_target, quality
+from hullcap.export import load_result
+from hullcap._sequence import Sequence
+from hullcap._subject import with_hands
+from hullcap._tracking import Tracker, TrackerOptions
 
 RAISED = 0.20
 """A wrist this far (m) above its shoulder, in the truth, raises the arm."""
@@ -84,7 +82,7 @@ def summary(result, truth: devset.Truth) -> np.ndarray:
 
 def refits(sequence: Path, result, truth: devset.Truth, exact: bool, frames) -> None:
     """Prints the fits of `frames` from the tracked pose and from raised clavicles."""
-    options = TrackerOptions(use_silhouettes=exact)
+    options = TrackerOptions(ignore_silhouettes=not exact)
     tracker = Tracker(Sequence(sequence), model=result.model, options=options)
     model = with_hands(result.model, tracker._hand_reach)  # the hands tracking fits
     dofs = list(model.dof_names)

@@ -72,9 +72,7 @@ def iou(mask, truth) -> float:
 
 def devset_table(names, step: int) -> None:
     """Per-camera IoU and time of the three segmenters on development sequences."""
-    import sys
 
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
     import devset
     from hullcap._guided import GuidedOptions, GuidedSegmenter
     from hullcap._render import render_silhouette
@@ -175,7 +173,7 @@ def main():
                 iou_mog.append(iou(mm, truth))
             rep = HullReport()
             t0 = time.perf_counter()
-            hull = visual_hull(masks, seq.cameras, 0.01, bounds=BOUNDS, report=rep)
+            hull = visual_hull(masks, seq.cameras, 0.01, volume=BOUNDS, report=rep)
             hull_times.append(time.perf_counter() - t0)
             carve.append(rep.carve_seconds)
             mesh.append(rep.mesh_seconds)

@@ -12,14 +12,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(__file__))
-import hullcap  # noqa: E402
-from surfaces import human_surface, noisy_queries  # noqa: E402
+import hullcap
+from surfaces import human_surface, noisy_queries
 
 
 def best_of(repeats: int, fn):

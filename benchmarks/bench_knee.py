@@ -17,17 +17,15 @@ About 1–2 minutes per run on 2 cores (the first seconds tracked, then the refi
 from __future__ import annotations
 
 import argparse
-import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import devset  # noqa: E402
-import hullcap._tracking as tracking  # noqa: E402
-from hullcap._sequence import Sequence  # noqa: E402
-from hullcap._subject import best_move, centre_profile  # noqa: E402
+import devset
+import hullcap._subject_builder as builder
+from hullcap import Tracker, TrackerOptions
+from hullcap._sequence import Sequence
+from hullcap._subject import best_move, centre_profile
 
 
 class _Searched(Exception):
@@ -45,15 +43,15 @@ def _intercept(model, joint, axis, targets, poses, options=None):
 
 def search_inputs(sequence: Path, exact: bool) -> _Searched | None:
     """The knee search's inputs of one run, or None if the run never searches."""
-    tracker = tracking.Tracker(Sequence(sequence), options=replace(tracking.TrackerOptions(), use_silhouettes=exact))
-    real, tracking.search_centres = tracking.search_centres, _intercept
+    tracker = Tracker(Sequence(sequence), options=TrackerOptions(ignore_silhouettes=not exact))
+    real, builder.search_centres = builder.search_centres, _intercept
     try:
         tracker.run(devset.CACHE / "knee" / f"{sequence.name}-{'exact' if exact else 'colour'}",
                     resume=False, show_progress=False, frames=None)
     except _Searched as found:
         return found
     finally:
-        tracking.search_centres = real
+        builder.search_centres = real
     return None
 
 

@@ -28,13 +28,11 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import devset  # noqa: E402
+import devset
 from hullcap._evaluate import accuracy
 from hullcap._sequence import Sequence
 from hullcap._synth import synthesize
@@ -66,7 +64,7 @@ def speed(args) -> None:
         n = len(seq) if args.frames is None else min(args.frames, len(seq))
         floor = decode_seconds(seq, n) / n
         for read_ahead in (2, 0):
-            options = TrackerOptions(use_silhouettes=False, read_ahead=read_ahead)
+            options = TrackerOptions(ignore_silhouettes=True, read_ahead=read_ahead)
             t0 = time.perf_counter()
             result = Tracker(seq, options=options).run(Path(tmp.name) / f"out{read_ahead}", resume=False,
                                                          show_progress=False, frames=n)
@@ -96,7 +94,7 @@ def accuracy_tables(args) -> None:
                                   silhouettes=True, show_progress=False)
             seq = Sequence(seq_path)
             for label, given in (("exact silhouettes", True), ("background subtraction", False)):
-                tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=given))
+                tracker = Tracker(seq, options=TrackerOptions(ignore_silhouettes=not given))
                 t0 = time.perf_counter()
                 result = tracker.run(Path(tmp) / f"{subject}-{given}", resume=False, show_progress=False)
                 total = time.perf_counter() - t0

@@ -12,17 +12,15 @@ from __future__ import annotations
 
 import argparse
 import csv
-import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import devset  # noqa: E402
-from hullcap.export import load_result  # noqa: E402
-from hullcap._sequence import Sequence  # noqa: E402
-from hullcap.export._overlay import draw_overlay  # noqa: E402
+import devset
+from hullcap.export import load_result
+from hullcap._sequence import Sequence
+from hullcap.export._overlay import draw_overlay
 
 TILE = 280
 

@@ -41,7 +41,7 @@ for python in "${pythons[@]}"; do
 print(f"hullcap {hullcap.__version__}: numpy {numpy.__version__}, scipy {scipy.__version__}, OpenCV {cv2.__version__}")'
   seq="$work/take-$version" out="$work/out-$version"
   "$env/bin/hullcap" synth "$seq" --cameras 6 --frames 24 --seed 1 >/dev/null 2>&1
-  "$env/bin/hullcap" track "$seq" --out "$out" --no-overlay 2>/dev/null | tail -n 1
+  "$env/bin/hullcap" track "$seq" --out "$out" --no-overlays 2>/dev/null | tail -n 1
   "$env/bin/hullcap" export "$out" --format trc
   "$env/bin/hullcap" compare "$out" "$seq" | tail -n 2
 done

@@ -105,7 +105,7 @@ def test_pose2sim_portrait_phones_carve_a_hull(tmp_path, capsys):
     hull = Tracker(Sequence(tmp_path / "seq")).hull(0)
     assert len(hull.vertices) > 1000 and 1.2 < np.ptp(hull.vertices[:, 2]) < 2.0
     capsys.readouterr()
-    assert main(["track", str(tmp_path / "seq"), "--out", str(tmp_path / "out"), "--no-overlay"]) == 0
+    assert main(["track", str(tmp_path / "seq"), "--out", str(tmp_path / "out"), "--no-overlays"]) == 0
     assert "2 of 2 frames tracked (0 lost" in capsys.readouterr().out
     # `calib show` prints the rig and draws it.
     capsys.readouterr()

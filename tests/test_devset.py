@@ -6,16 +6,13 @@ for); without it the tests that track it are skipped. Its full run is ``make ben
 (docs/accuracy.md).
 """
 
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-import bench_devset  # noqa: E402
-import devset  # noqa: E402
-from hullcap._tracking import TrackerOptions  # noqa: E402
+import bench_devset
+import devset
+from hullcap._tracking import TrackerOptions
 
 WHERE = devset.find()
 needs_the_set = pytest.mark.skipif(WHERE is None, reason="the development set is not on this machine "

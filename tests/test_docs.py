@@ -1,10 +1,13 @@
 """The documentation runs: the API tour executes, the CLI reference is current; and the
 code reads as the house writes it (its lint passes)."""
 
+import ast
 import re
 import subprocess
 import sys
 from pathlib import Path
+
+import hullcap
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 
@@ -41,6 +44,12 @@ def test_cli_reference_is_current(monkeypatch):
 
     monkeypatch.setenv("COLUMNS", "100")
     assert (DOCS / "cli.md").read_text().rstrip() == reference().rstrip(), "run `make docs`"
+
+
+def test_options_reference_is_current():
+    from hullcap._take import options_page
+
+    assert (DOCS / "options.md").read_text().rstrip() == options_page().rstrip(), "run `make docs`"
 
 
 ROOT = DOCS.parent.resolve()
@@ -96,3 +105,53 @@ def test_the_python_code_passes_the_house_lint():
     run = subprocess.run([sys.executable, "-m", "ruff", "check", "--no-cache", str(ROOT)], capture_output=True,
                          text=True)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+def _module_imports() -> dict[str, set[str]]:
+    """Each module of the package (``_tracking``, ``export._bvh``) → the package's modules
+    it imports when it is loaded (imports inside functions, made on demand, are left out)."""
+    package = Path(hullcap.__file__).parent
+    names = {".".join(p.relative_to(package).with_suffix("").parts).removesuffix("__init__").rstrip(".") or "hullcap"
+             for p in package.rglob("*.py") if "data" not in p.parts}
+    graph = {"_engine": set()}  # the Rust engine, imports nothing of ours
+    names.add("_engine")
+    for path in sorted(package.rglob("*.py")):
+        if "data" in path.parts:
+            continue
+        name = ".".join(path.relative_to(package).with_suffix("").parts).removesuffix("__init__").rstrip(".")
+        deps = set()
+        for node in ast.parse(path.read_text()).body:
+            modules = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.split(".")[0] == "hullcap":
+                inner = node.module.removeprefix("hullcap").lstrip(".")
+                subs = [f"{inner}.{a.name}".lstrip(".") for a in node.names]
+                modules = [s if s in names else inner for s in subs]
+            elif isinstance(node, ast.Import):
+                modules = [a.name.removeprefix("hullcap").lstrip(".") for a in node.names
+                           if a.name.split(".")[0] == "hullcap"]
+            deps.update(m or "hullcap" for m in modules)
+        graph[name or "hullcap"] = deps - {name or "hullcap"}
+    return graph
+
+
+def _import_map() -> str:
+    """The package's modules in layers, each importing only from layers below it (a cycle
+    fails), with what it imports."""
+    graph, layer = _module_imports(), {}
+    while len(layer) < len(graph):
+        ready = [m for m in graph if m not in layer and all(d in layer for d in graph[m] if d in graph)]
+        assert ready, f"the imports of {sorted(set(graph) - set(layer))} form a cycle"
+        for m in ready:
+            layer[m] = 1 + max((layer[d] for d in graph[m] if d in graph), default=-1)
+    lines = []
+    for k in range(max(layer.values()) + 1):
+        for m in sorted(m for m in layer if layer[m] == k):
+            imports = ", ".join(sorted(d for d in graph[m] if d in graph)) or "—"
+            lines.append(f"{k:>2}  {m:<20} {imports}")
+    return "\n".join(lines)
+
+
+def test_the_module_map_of_design_md_is_the_code_and_has_no_cycle():
+    doc = (DOCS / "design.md").read_text()
+    block = doc.split("<!-- import map -->\n```text\n", 1)[1].split("```", 1)[0]
+    assert block.rstrip() == _import_map(), "design.md's module map is out of date:\n" + _import_map()

@@ -36,9 +36,9 @@ def test_each_kind_of_fault_raises_its_own_class(tmp_path):
         hullcap.load_result(tmp_path / "out")
     with pytest.raises(errors.OptionsError, match="voxel_size"):
         hullcap.TrackerOptions(voxel_size=0)
-    with pytest.raises(errors.OptionsError, match="voxel_size must be a positive number of metres, got inf"):
+    with pytest.raises(errors.OptionsError, match="voxel_size must be a positive number, got inf"):
         hullcap.TrackerOptions(voxel_size=float("inf"))
-    with pytest.raises(errors.HullError, match="voxel_size must be a positive number of metres, got inf"):
+    with pytest.raises(errors.HullError, match="voxel_size must be a positive number, got inf"):
         visual_hull([np.full((48, 64), 255, np.uint8)] * 4, cams, voxel_size=float("inf"))
     with pytest.raises(errors.HullError, match=r"voxel_size 1e-05 m gives .* voxels along the capture volume"):
         visual_hull([np.full((48, 64), 255, np.uint8)] * 4, cams, voxel_size=1e-5)

@@ -199,7 +199,7 @@ def test_bad_run_options_are_refused_before_anything_is_tracked(clean, tmp_path)
     tracker = Tracker(Sequence(clean), options=FAST)
     for kwargs, message in (({"smooth_hz": 20.0}, "between 0 and half the frame rate"),
                             ({"smooth_hz": float("nan")}, "between 0 and half the frame rate"),
-                            ({"frames": 0}, "frames must be at least 1")):
+                            ({"frames": 0}, "frames must be a whole number, at least 1")):
         with pytest.raises(OptionsError, match=message):
             tracker.run(tmp_path / "out", show_progress=False, **kwargs)
         assert not (tmp_path / "out").exists()
@@ -249,7 +249,7 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
     assert not Tracker(five, options=FAST).run(out, show_progress=False, frames=2).failed.any()
     with pytest.raises(SystemExit):
         main(["track", str(seq), "--out", str(out), "--cameras", "cam0,,cam1"])
-    assert "camera names separated by commas, got 'cam0,,cam1'" in capsys.readouterr().err
+    assert "must be a list of camera names (cam0,cam2 on the command line), got 'cam0,,cam1'" in capsys.readouterr().err
 
 
 def empty_room(seq, cam, frame):
@@ -259,7 +259,7 @@ def empty_room(seq, cam, frame):
 
 def track(seq, out, *more):
     """`hullcap track` as a user runs it, quickly: its exit code."""
-    return main(["track", str(seq), "--out", str(out), "--no-refine-joints", "--no-overlay", *more])
+    return main(["track", str(seq), "--out", str(out), "--no-refine-joints", "--no-overlays", *more])
 
 
 def test_a_view_without_the_person_is_left_out_once(clean, tmp_path, capsys):
@@ -311,7 +311,7 @@ def test_a_resume_with_other_settings_is_refused_naming_them(clean, tmp_path, mo
     assert (out / ".checkpoint.npz").is_file()
     monkeypatch.setattr(FrameFitter, "track", real)
     capsys.readouterr()
-    assert track(seq, out, "--voxel", "0.03") == 2
+    assert track(seq, out, "--voxel-size", "0.03") == 2
     assert "other settings (voxel_size: 0.01 then, 0.03 now)" in capsys.readouterr().err
     assert track(seq, out, "--no-wrists") == 2
     assert "wrists: True then, False now" in capsys.readouterr().err

@@ -459,7 +459,7 @@ def test_an_elbow_that_turned_fast_keeps_the_forearm_as_it_was_in_doubt_for_a_wh
     off.doubt_turns(*tracked(0, 0, 0), folded)
     assert off.doubted == {}
     for bad in ({"elbow_doubt": -1}, {"elbow_span": 0}):
-        with pytest.raises(OptionsError, match="elbow_doubt"):
+        with pytest.raises(OptionsError, match=next(iter(bad))):
             TrackerOptions(**bad)
 
 

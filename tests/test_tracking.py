@@ -180,7 +180,7 @@ def test_tracking_fits_short_hands_and_guides_the_silhouettes_with_whole_ones(sh
     seq, model = Sequence(short_sequence), BodyModel.template()
     assert seq.has_silhouettes
     for options, reach in ((TrackerOptions(hand_reach=0.6), 0.6), (TrackerOptions(hand_reach=1.0), 1.0),
-                           (TrackerOptions(), 0.6), (TrackerOptions(use_silhouettes=False), 1.0)):
+                           (TrackerOptions(), 0.6), (TrackerOptions(ignore_silhouettes=True), 1.0)):
         state = Tracker(seq, options=options).fitter.state(model)
         assert state.guide is model and state.search.model is state.model
         if reach == 1.0:
@@ -225,7 +225,7 @@ def test_a_real_bend_put_in_doubt_is_still_followed(short_sequence, tmp_path, mo
     monkeypatch.setattr(Carver, "carve", carving)
     runs = {}
     for elbow_doubt in (0.5, 0.0):
-        options = TrackerOptions(use_silhouettes=False, refine_joints=False, hinge_jump=np.radians(8),
+        options = TrackerOptions(ignore_silhouettes=True, refine_joints=False, hinge_jump=np.radians(8),
                                  elbow_span=0.6, elbow_doubt=elbow_doubt)
         runs[elbow_doubt] = Tracker(seq, options=options).run(tmp_path / str(elbow_doubt), show_progress=False)
         if elbow_doubt:
@@ -272,7 +272,8 @@ def test_other_threads_change_nothing(short_sequence, tmp_path, monkeypatch):
     runs = []
     for read_ahead, threads in ((0, "1"), (2, "2")):
         monkeypatch.setenv("HULLCAP_THREADS", threads)
-        tracker = Tracker(seq, model, TrackerOptions(use_silhouettes=False, read_ahead=read_ahead, refine_joints=False))
+        options = TrackerOptions(ignore_silhouettes=True, read_ahead=read_ahead, refine_joints=False)
+        tracker = Tracker(seq, model, options)
         result = tracker.run(tmp_path / f"out{read_ahead}", show_progress=False, frames=8)
         runs.append((result, [str(p) for p in tracker.problems]))
     (serial, serial_problems), (ahead, ahead_problems) = runs
@@ -288,7 +289,7 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
     # checkpoint keeps them.
     seq = Sequence(short_sequence)
     out = tmp_path / "out"
-    options = TrackerOptions(refine_joints=False, use_silhouettes=own_silhouettes)
+    options = TrackerOptions(refine_joints=False, ignore_silhouettes=not own_silhouettes)
     tracker = Tracker(seq, options=options)
     calls = {"n": 0}
     real = FrameFitter.track
@@ -376,7 +377,7 @@ def test_a_given_model_teaches_the_guided_masks_colours_as_it_goes(short_sequenc
         return real(self, frame, *args, **kwargs)
 
     monkeypatch.setattr(Segmenter, "learn_colours", recording)
-    options = TrackerOptions(use_silhouettes=False, calibration_seconds=0.4, calibration_frames=4)
+    options = TrackerOptions(ignore_silhouettes=True, calibration_seconds=0.4, calibration_frames=4)
     result = Tracker(seq, model=built.model, options=options).run(tmp_path / "given", show_progress=False,
                                                                    frames=16)
     # 0.4 s at 30 frames/s from frame 0: frames 0-11, four of them spread, the first the placement's.
@@ -398,8 +399,11 @@ def test_command_line_synth_then_track(tmp_path, capsys):
     assert Sequence(seq).n_frames == 3
     assert main(["track", str(seq), "--out", str(tmp_path / "out"), "--hand-reach", "0.6"]) == 0
     assert "3 of 3 frames tracked (0 lost" in capsys.readouterr().out
-    assert main(["track", str(seq), "--out", str(tmp_path / "bad"), "--hand-reach", "1.5"]) == 2
-    assert "hand_reach must be in (0, 1], got 1.5" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:  # refused as the command line is read, as every flag is
+        main(["track", str(seq), "--out", str(tmp_path / "bad"), "--hand-reach", "1.5"])
+    assert e.value.code == 2
+    assert "argument --hand-reach: must be a fraction in (0, 1], got '1.5'" in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
 
 
 @pytest.mark.parametrize("rest_mesh", ["template", "hull"])

@@ -21,7 +21,7 @@ import numpy as np
 
 from hullcap._cameras import Cameras
 from hullcap._files import atomic_write
-from hullcap._hull import visual_hull
+from hullcap._hull import VOXEL_SIZE, visual_hull
 from hullcap._render import render_silhouette
 from hullcap.errors import HullError
 
@@ -41,9 +41,8 @@ rings of 4, 6 and 8 cameras gains 4.3 to 22 times it."""
 BROAD = 0.9
 """Leaving the first suspect out must bring the other views' mean part covered to at
 least this, or the views disagree too much to blame one camera: a camera turned by 4°
-leaves the others 0.89 covered and 0.99 without it; the development set's calibrated
-cameras with plain background subtraction, whose holes where clothes match the room
-carve every view, 0.61–0.84 (with its exact masks 0.97–0.99)."""
+leaves the others 0.89 covered and 0.99 without it, while masks whose holes (clothes the
+colour of the room) carve every view leave them well below."""
 
 
 @dataclass(frozen=True)
@@ -71,7 +70,7 @@ def _covered(hull, camera, mask: np.ndarray) -> float:
     return float((drawn & mask).sum() / max(mask.sum(), 1))
 
 
-def view_agreement(masks, cameras: Cameras, voxel_size: float = 0.01) -> list[ViewAgreement]:
+def view_agreement(masks, cameras: Cameras, voxel_size: float = VOXEL_SIZE) -> list[ViewAgreement]:
     """Each view's :class:`ViewAgreement`: `masks` one per camera (non-zero = subject), at
     least three views with the subject in them. A hull per view left out: n + 1 hulls."""
     cameras = cameras if isinstance(cameras, Cameras) else Cameras(cameras)
@@ -140,7 +139,7 @@ def describe_agreement(agreements: list[ViewAgreement], frame: int) -> str:
 
 
 def draw_agreement(path, images, masks, cameras: Cameras, agreements: list[ViewAgreement],
-                   voxel_size: float = 0.01, width: int = 320) -> None:
+                   voxel_size: float = VOXEL_SIZE, width: int = 320) -> None:
     """A sheet of every view at `width` pixels: the image dimmed, the silhouette green
     where the hull of every view covers it and red where other views carved it away,
     with the camera's figures; a suspected camera's name in red."""

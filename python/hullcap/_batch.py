@@ -77,7 +77,7 @@ def run_take(job: Job) -> Outcome:
         summary = track_take(job.take.path, job.partial, job.take.options, model=job.model,
                              show_progress=job.show_progress)
         record = {"take": job.take.name, "subject": job.take.subject, "model_from": job.take.calibration,
-                  "sequence": str(job.take.path), **asdict(summary), "options": asdict(job.take.options)}
+                  "sequence": str(job.take.path), **asdict(summary), "options": job.take.options.to_dict()}
         atomic_write(job.partial / TAKE_FILE, (json.dumps(record, indent=2) + "\n").encode())
         job.final.parent.mkdir(parents=True, exist_ok=True)
         os.replace(job.partial, job.final)

@@ -17,13 +17,8 @@ __all__ = ["main"]
 def _track(args) -> int:
     from hullcap._take import TakeOptions, track_take
 
-    options = TakeOptions(voxel=args.voxel, background=args.background, ignore_silhouettes=args.ignore_silhouettes,
-                          volume=args.volume, frames=args.frames, refine_joints=args.refine_joints,
-                          hand_reach=args.hand_reach, wrists=args.wrists, overlays=not args.no_overlay,
-                          interpolate=args.interpolate, smooth=args.smooth, image_scale=args.image_scale,
-                          cameras=args.cameras, leave_out=args.leave_out)
-    track_take(args.sequence, args.out, options, model=args.model, resume=not args.restart, say=print,
-               warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
+    track_take(args.sequence, args.out, TakeOptions.from_arguments(args), model=args.model, resume=not args.restart,
+               say=print, warn=lambda line: print(f"hullcap: warning: {line}", file=sys.stderr))
     return 0
 
 
@@ -62,7 +57,7 @@ def _demo(args) -> int:
         seq = Sequence(seq_path)
         print("tracking: background subtraction → visual hull → subject model from the first frames → "
               "hierarchical robust ICP per frame")
-        tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=False))
+        tracker = Tracker(seq, options=TrackerOptions(ignore_silhouettes=True))
         t0 = time.perf_counter()
         result = tracker.run(root / "result", resume=False)
         track_s = time.perf_counter() - t0
@@ -176,9 +171,9 @@ def _calib_check(args) -> int:
     seq = Sequence(args.sequence, cameras=args.cameras, leave_out=args.leave_out)
     if not 0 <= args.frame < len(seq):
         raise OptionsError(f"--frame {args.frame}: {args.sequence} has frames 0 to {len(seq) - 1}")
-    tracker = Tracker(seq, options=TrackerOptions(use_silhouettes=not args.ignore_silhouettes))
+    tracker = Tracker(seq, options=TrackerOptions(ignore_silhouettes=args.ignore_silhouettes))
     masks = tracker.masks(args.frame)
-    agreements = view_agreement(masks, seq.cameras, args.voxel)
+    agreements = view_agreement(masks, seq.cameras, args.voxel_size)
     print(describe_agreement(agreements, args.frame))
     images = []
     for cam in seq.cameras:
@@ -187,20 +182,9 @@ def _calib_check(args) -> int:
         except ViewError:
             images.append(None)  # masks without frames, or a broken image: the silhouette alone
     picture = Path(args.picture) if args.picture else Path(args.sequence) / "cameras_check.png"
-    draw_agreement(picture, images, masks, seq.cameras, agreements, args.voxel)
+    draw_agreement(picture, images, masks, seq.cameras, agreements, args.voxel_size)
     print(f"every view, green where the others agree and red where they carve its silhouette away: {picture}")
     return 0
-
-
-def _volume(text: str):
-    """``--volume x0,y0,z0,x1,y1,z1`` → (x0, y0, z0, x1, y1, z1)."""
-    try:
-        v = [float(x) for x in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {text!r}") from None
-    if len(v) != 6:
-        raise argparse.ArgumentTypeError(f"six numbers x0,y0,z0,x1,y1,z1 in metres, got {len(v)}")
-    return tuple(v)
 
 
 def _shift(text: str):
@@ -211,31 +195,6 @@ def _shift(text: str):
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"a number of seconds or 'auto', got {text!r}") from None
-
-
-def _names(text: str) -> tuple[str, ...]:
-    """``--cameras cam0,cam2`` → ('cam0', 'cam2')."""
-    names = tuple(n.strip() for n in text.split(","))
-    if not all(names):
-        raise argparse.ArgumentTypeError(f"camera names separated by commas, got {text!r}")
-    return names
-
-
-def _camera_options(p) -> None:
-    p.add_argument("--cameras", type=_names, metavar="NAMES",
-                   help="use only these cameras of cameras.json, by name, separated by commas (default: all)")
-    p.add_argument("--leave-out", type=_names, default=(), metavar="NAMES",
-                   help="do without these cameras, by name, separated by commas: one `hullcap calib check` names, "
-                        "or one whose files are missing")
-
-
-def _output_options(p) -> None:
-    p.add_argument("--interpolate", action="store_true",
-                   help="fill failed frames between fitted ones from their neighbours in the outputs "
-                        "(marked 'interpolated'; pose.npz keeps the raw result)")
-    p.add_argument("--smooth", type=float, metavar="HZ",
-                   help="also low-pass filter the joint trajectories without lag (Butterworth, forwards and "
-                        "backwards) with this cut-off: track writes joints_smooth.csv, export filters what it writes")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -259,7 +218,10 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     from hullcap import __version__
     from hullcap._motions import MOTIONS
+    from hullcap._options import add_flags
     from hullcap._synth import SUBJECTS
+    from hullcap._take import TakeOptions
+    from hullcap._tracking_options import TrackerOptions
 
     ap = _Parser(prog="hullcap",
                                  description="Markerless motion capture from calibrated multi-view video.")
@@ -273,31 +235,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("sequence", help="the sequence folder")
     t.add_argument("--out", required=True, help="the results folder")
     t.add_argument("--model", help="a body model folder from an earlier run of the same subject (skips building one)")
-    t.add_argument("--voxel", type=float, default=0.01, help="visual hull voxel size in metres (default 0.01)")
-    t.add_argument("--image-scale", type=float, default=1.0, metavar="S",
-                   help="read every image resized by S in (0, 1] (the calibration follows): for cameras of more "
-                        "pixels than the hull needs, e.g. 0.5 for 1920x1080 (default 1)")
-    t.add_argument("--background", choices=["statistical", "mog2"], default="statistical",
-                   help="background subtraction when the sequence has no silhouettes (default statistical)")
-    t.add_argument("--ignore-silhouettes", action="store_true",
-                   help="subtract the background even if silhouettes/ exist")
-    t.add_argument("--volume", type=_volume, metavar="X0,Y0,Z0,X1,Y1,Z1",
-                   help="the capture volume to carve the hull in, metres (default: what every camera sees)")
-    t.add_argument("--frames", type=int, help="track only the first N frames")
     t.add_argument("--restart", action="store_true", help="start over instead of resuming")
-    t.add_argument("--no-overlay", action="store_true", help="skip the overlay videos (overlay/<cam>.mp4)")
-    t.add_argument("--no-refine-joints", dest="refine_joints", action="store_false",
-                   help="build the subject's model from the calibration pose only (default: refine its proportions, "
-                        "joint centres and surface from the first seconds of motion, then track from the start)")
-    t.add_argument("--hand-reach", type=float, metavar="F",
-                   help="fit each hand pulled toward its wrist to this fraction of its length (1: whole hands; "
-                        "default 0.6 with the sequence's own silhouettes, 1 with background subtraction, see "
-                        "docs/notebooks/accuracy.md)")
-    t.add_argument("--no-wrists", dest="wrists", action="store_false",
-                   help="track with the paper's 29 DOF, each hand rigid with its forearm (default: the hands turn at "
-                        "the wrists, two DOF each, added once the subject's model is built)")
-    _camera_options(t)
-    _output_options(t)
+    add_flags(t, TrackerOptions)
+    add_flags(t, TakeOptions)
     t.set_defaults(run=_track)
 
     b = sub.add_parser("batch", help="track every take of a session folder, on Ray", description=(
@@ -375,10 +315,8 @@ def build_parser() -> argparse.ArgumentParser:
     ck.add_argument("sequence", help="the sequence folder")
     ck.add_argument("--frame", type=int, default=0, help="the frame to check (default 0, the calibration pose)")
     ck.add_argument("--picture", help="the picture to write (default: SEQUENCE/cameras_check.png)")
-    ck.add_argument("--voxel", type=float, default=0.01, help="visual hull voxel size in metres (default 0.01)")
-    ck.add_argument("--ignore-silhouettes", action="store_true",
-                    help="subtract the background even if silhouettes/ exist")
-    _camera_options(ck)
+    add_flags(ck, TrackerOptions, ["voxel_size", "ignore_silhouettes"])
+    add_flags(ck, TakeOptions, ["cameras", "leave_out"])
     ck.set_defaults(run=_calib_check)
 
     e = sub.add_parser("export", help="re-export a finished run without tracking again", description=(
@@ -395,7 +333,7 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--units", choices=["m", "cm", "mm"],
                    help="bvh: m (default) or cm; trc: mm (default) or m")
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
-    _output_options(e)
+    add_flags(e, TakeOptions, ["interpolate", "smooth"])
     e.set_defaults(run=_export)
 
     m = sub.add_parser("compare", help="compare a run's joints with a reference (TRC, C3D, another run, ground truth)",

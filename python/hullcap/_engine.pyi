@@ -418,7 +418,7 @@ def classify_cells(
 
 def carve(
     lo: npt.ArrayLike,
-    voxel: float,
+    voxel_size: float,
     fine: tuple[int, int, int] | list[int],
     levels: int,
     views: list[CarveView],
@@ -428,14 +428,14 @@ def carve(
 ) -> tuple[list[int], npt.NDArray[np.bool_], int]:
     """The visual hull's coarse-to-fine carving (docs/design.md §7).
 
-    The box of ``fine`` voxels of side `voxel` starting at `lo` is covered by cells of
+    The box of ``fine`` voxels of side `voxel_size` starting at `lo` is covered by cells of
     ``2**levels`` voxels; each level's cells are classified as :func:`classify_cells` does
     (radius ``side · √3 / 2``, 0 at the finest level), the cells in are kept whole and the
     cells to be split are split in eight, down to single voxels.
 
     Args:
         lo: (3,) the first corner of the box (metres).
-        voxel: the finest voxel's side (metres).
+        voxel_size: the finest voxel's side (metres).
         fine: the box's size in finest voxels per axis (each at least 1).
         levels: how many times the coarsest cells are halved.
         views, tolerance, min_views, threads: as :func:`classify_cells`.

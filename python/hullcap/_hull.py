@@ -14,7 +14,6 @@ empty while others see the subject is reported and left out.
 
 from __future__ import annotations
 
-import math
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -25,11 +24,15 @@ import numpy as np
 from hullcap._cameras import Cameras, capture_volume, check_bounds, format_bounds
 from hullcap._engine import carve, doubtful_points, gaussian_blur, isosurface
 from hullcap._mesh import Surface
+from hullcap._options import POSITIVE
 from hullcap._silhouette import distance_outside, signed_distance
 from hullcap._threads import over_views
 from hullcap.errors import HullError
 
-__all__ = ["visual_hull", "doubtful_vertices", "HullReport"]
+__all__ = ["VOXEL_SIZE", "visual_hull", "doubtful_vertices", "HullReport"]
+
+VOXEL_SIZE = 0.01
+"""The hull's voxel size by default, metres."""
 
 
 @dataclass
@@ -74,7 +77,7 @@ def _carving_view(camera, mask, prior=None) -> tuple:
     return camera.K, camera.dist, camera.R, camera.t, focal, _boxed_signed_distance(mask), prior
 
 
-def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
+def visual_hull(masks, cameras: Cameras, voxel_size: float = VOXEL_SIZE, volume=None,
                 report: HullReport | None = None, smooth: float = 0.7,
                 min_views: int = 3, tolerance: int = 0, priors=None) -> Surface:
     """The visual hull of silhouettes as a closed, outward-oriented surface.
@@ -83,7 +86,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         masks: one (H, W) uint8 mask per camera, in the cameras' order (non-zero = subject).
         cameras: the calibration: :class:`Cameras`, or a slice or list of some of them.
         voxel_size: the finest voxel (metres).
-        bounds: ``((x0, y0, z0), (x1, y1, z1))`` capture volume; default: the region every
+        volume: ``((x0, y0, z0), (x1, y1, z1))`` capture volume; default: the region every
             camera sees (:func:`capture_volume`).
         report: filled with the views skipped, voxel counts and stage times.
         smooth: Gaussian smoothing (in voxels) of the occupancy before marching cubes; it
@@ -115,8 +118,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     cameras = cameras if isinstance(cameras, Cameras) else Cameras(cameras)  # a list of some of them, say
     if len(masks) != len(cameras):
         raise HullError(f"{len(masks)} masks for {len(cameras)} cameras")
-    if not 0 < voxel_size < math.inf:
-        raise HullError(f"voxel_size must be a positive number of metres, got {voxel_size}")
+    POSITIVE.check("voxel_size", voxel_size, error=HullError)
     if priors is not None and len(priors) != len(cameras):
         raise HullError(f"{len(priors)} priors for {len(cameras)} cameras")
     if tolerance < 0:
@@ -139,7 +141,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
         raise HullError("every mask is empty: nothing to carve")
     if report.skipped:
         warnings.warn(f"visual hull: views left out: {report.skipped}", stacklevel=2)
-    lo, hi = check_bounds(bounds) if bounds is not None else capture_volume(cameras)
+    lo, hi = check_bounds(volume) if volume is not None else capture_volume(cameras)
     side = float(np.max(hi - lo)) / voxel_size
     if side > MAX_VOXELS_A_SIDE:
         raise HullError(f"voxel_size {voxel_size} m gives {side:.3g} voxels along the capture volume "
@@ -154,7 +156,7 @@ def visual_hull(masks, cameras: Cameras, voxel_size: float = 0.01, bounds=None,
     report.carve_seconds = time.perf_counter() - t0
     if not occupancy.any():
         raise HullError(f"the visual hull is empty: the silhouettes agree on no point of the capture volume "
-                        f"{format_bounds((lo, hi))} (is the person inside it? give bounds / --volume)")
+                        f"{format_bounds((lo, hi))} (is the person inside it? give volume= / --volume)")
     t0 = time.perf_counter()
     surface = _mesh(occupancy, origin, voxel_size, smooth)
     report.mesh_seconds = time.perf_counter() - t0

@@ -107,17 +107,17 @@ def describe(cameras: Cameras) -> str:
     return "\n".join(lines)
 
 
-def draw_top_view(path, cameras: Cameras, bounds=None, size: int = 800) -> None:
+def draw_top_view(path, cameras: Cameras, volume=None, size: int = 800) -> None:
     """Write a picture of the rig seen from above: each camera's centre, viewing direction
-    and horizontal field of view, the capture volume (`bounds`, default every camera's
+    and horizontal field of view, the capture volume (`volume`, default every camera's
     common view) and a 1 m grid; the world's x to the right, y up the picture."""
-    if bounds is None:
+    if volume is None:
         try:
-            bounds = capture_volume(cameras)
+            volume = capture_volume(cameras)
         except CalibrationError:
-            bounds = None
+            volume = None
     centres = np.array([c.centre[:2] for c in cameras])
-    pts = centres if bounds is None else np.vstack([centres, bounds[0][:2], bounds[1][:2]])
+    pts = centres if volume is None else np.vstack([centres, volume[0][:2], volume[1][:2]])
     lo, hi = pts.min(0) - 1.0, pts.max(0) + 1.0
     scale = (size - 40) / (hi - lo).max()
 
@@ -131,9 +131,9 @@ def draw_top_view(path, cameras: Cameras, bounds=None, size: int = 800) -> None:
     for y in np.arange(np.ceil(lo[1]), hi[1] + 1e-9):
         cv2.line(image, px((lo[0], y)), px((hi[0], y)), (230, 230, 230), 1)
     cv2.drawMarker(image, px((0, 0)), (120, 120, 120), cv2.MARKER_CROSS, 14, 1)
-    if bounds is not None:
-        cv2.rectangle(image, px(bounds[0][:2]), px(bounds[1][:2]), (40, 160, 40), 2)
-        cv2.putText(image, "capture volume", (px(bounds[0][:2])[0] + 4, px(bounds[0][:2])[1] - 6),
+    if volume is not None:
+        cv2.rectangle(image, px(volume[0][:2]), px(volume[1][:2]), (40, 160, 40), 2)
+        cv2.putText(image, "capture volume", (px(volume[0][:2])[0] + 4, px(volume[0][:2])[1] - 6),
                     cv2.FONT_HERSHEY_SIMPLEX, 0.45, (40, 160, 40), 1, cv2.LINE_AA)
     reach = 0.6 * (hi - lo).max()
     for cam in cameras:

@@ -74,4 +74,4 @@ def check_room(out: Path, views: int) -> None:
     free = shutil.disk_usage(out).free
     if free < need:
         raise ResultsError(f"{out}: {free / 1e6:.0f} MB free, a run of {views} views needs about {need / 1e6:.0f} "
-                           f"MB (fewer with --no-overlay or --frames)")
+                           f"MB (fewer with --no-overlays or --frames)")

@@ -75,7 +75,7 @@ class Segmenter:
     @property
     def given(self) -> bool:
         """Whether the masks are the sequence's own (else by background subtraction)."""
-        return self.options.use_silhouettes and self.sequence.has_silhouettes
+        return not self.options.ignore_silhouettes and self.sequence.has_silhouettes
 
     @property
     def guides(self) -> bool:

@@ -21,7 +21,8 @@ import numpy as np
 
 from hullcap._cameras import Cameras
 from hullcap._files import read_document
-from hullcap.errors import CalibrationError, OptionsError, SequenceError, ViewError
+from hullcap._options import FRACTION
+from hullcap.errors import CalibrationError, SequenceError, ViewError
 
 __all__ = ["Sequence", "VIDEO_SUFFIXES", "BACKGROUND_FRAMES"]
 
@@ -75,8 +76,7 @@ class Sequence:
             raise SequenceError(f"{self.path}: no such sequence folder")
         if not (self.path / "cameras.json").is_file():
             raise SequenceError(f"{self.path}: missing cameras.json")
-        if not (isinstance(image_scale, int | float) and 0 < image_scale <= 1):
-            raise OptionsError(f"image_scale must be in (0, 1], got {image_scale!r}")
+        FRACTION.check("image_scale", image_scale)
         self.image_scale = float(image_scale)
         every = Cameras.load(self.path / "cameras.json")
         try:

@@ -11,7 +11,7 @@ Without a ``session.toml`` every sequence folder directly under the session (one
 
     [takes]               # the takes to track (default: every sequence folder)
     anna_walk = "anna"                          # whose take it is
-    ben_jump = { voxel = 0.008 }                # no subject: builds its own model
+    ben_jump = { voxel_size = 0.008 }              # no subject: builds its own model
     anna_run = { subject = "anna", frames = 300 }
 
 A take of a listed person is tracked with the model of that person's calibration take

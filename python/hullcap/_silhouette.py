@@ -28,8 +28,8 @@ import numpy as np
 from hullcap._engine import background_distortions, background_evidence
 from hullcap.errors import OptionsError, SequenceError
 
-__all__ = ["StatisticalBackground", "Mog2Background", "background_model", "clean_mask", "half_covered",
-           "signed_distance", "distance_outside"]
+__all__ = ["BACKGROUND_MODELS", "StatisticalBackground", "Mog2Background", "background_model", "clean_mask",
+           "half_covered", "signed_distance", "distance_outside"]
 
 
 @dataclass(frozen=True)
@@ -53,9 +53,8 @@ class Thresholds:
 
 # The background models' clean-up (clean_mask) as fractions of the image's area: the
 # sizes in pixels that served 640 × 480 cameras, kept at other resolutions for the same
-# person in the same room. At 320 × 240 a fixed 200 pixels dropped parts of the person:
-# the first frame of the development set's d01 halved gave IoUs of 0.41–0.75 against the
-# exact masks, 0.53–0.75 with the sizes scaled.
+# person in the same room (a fixed number of pixels drops parts of a person filmed at
+# lower resolution).
 MIN_BLOB = 200 / (640 * 480)
 MAX_HOLE = 2000 / (640 * 480)
 
@@ -172,14 +171,17 @@ class Mog2Background:
         return clean_mask(np.where(raw == 255, 255, 0).astype(np.uint8), self.min_blob, self.max_hole)
 
 
+BACKGROUND_MODELS = {"statistical": StatisticalBackground, "mog2": Mog2Background}
+"""The background subtraction methods by name: Horprasert's statistical test (the
+default) and OpenCV's mixture of Gaussians."""
+
+
 def background_model(backgrounds, method: str = "statistical", **options):
-    """A background model of one camera: ``"statistical"`` (Horprasert; default) or
-    ``"mog2"``; `options` go to its constructor."""
-    if method == "statistical":
-        return StatisticalBackground(backgrounds, **options)
-    if method == "mog2":
-        return Mog2Background(backgrounds, **options)
-    raise OptionsError(f"unknown background subtraction method {method!r} (statistical, mog2)")
+    """A background model of one camera by `method` (:data:`BACKGROUND_MODELS`); `options`
+    go to its constructor."""
+    if method not in BACKGROUND_MODELS:
+        raise OptionsError(f"unknown background subtraction method {method!r} ({', '.join(BACKGROUND_MODELS)})")
+    return BACKGROUND_MODELS[method](backgrounds, **options)
 
 
 def _clean_sizes(shape, min_blob: float, max_hole: float | None) -> tuple[int, int | None]:

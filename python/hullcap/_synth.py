@@ -24,6 +24,7 @@ from hullcap._files import atomic_write
 from hullcap._mesh import face_normals
 from hullcap._motions import motion_poses
 from hullcap._progress import progress
+from hullcap._options import AT_LEAST_ONE, or_none
 from hullcap._render import render_depth, render_silhouette
 from hullcap.errors import OptionsError, SequenceError
 
@@ -191,8 +192,7 @@ def synthesize(out, motion: str = "demo", cameras: int | Cameras = 8, subject: s
     if not (0 < fps < math.inf and 0 <= noise < math.inf):
         raise OptionsError(f"fps must be a positive number and noise (grey levels) a number >= 0, "
                            f"got {fps} and {noise}")
-    if frames is not None and frames < 1:
-        raise OptionsError(f"frames must be at least 1, got {frames}")
+    or_none(AT_LEAST_ONE).check("frames", frames)
     if isinstance(cameras, int):
         cameras = ring(cameras, width=width, height_px=height)
     model = BodyModel.template()

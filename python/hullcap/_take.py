@@ -8,111 +8,90 @@ both call it, so that a take tracked in a batch gives the same files as on its o
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from hullcap._options import (AT_LEAST_ONE, BOOL, CAMERA_NAMES, FRACTION, POSITIVE, VOLUME, check_fields, flag_fields,
+                              from_arguments, from_value, option, or_none, reference_table)
+from hullcap._tracking_options import TrackerOptions
 from hullcap.errors import OptionsError, TrackingError
 
-__all__ = ["TakeOptions", "TakeSummary", "track_take"]
+__all__ = ["TakeOptions", "TakeSummary", "options_page", "track_take"]
 
 FEW_CAMERAS = 6
-"""Below this many cameras ``hullcap track`` warns when it subtracts the background: on the
-development set's adults filmed by 4 of their cameras, colour frames lost limbs for
-seconds (MPJPE 34–48 mm) where exact masks gave 22–36 mm; docs/accuracy.md, "Fewer
-cameras"."""
+"""Below this many cameras ``hullcap track`` warns when it subtracts the background: with
+few views a limb the masks miss is not carved back by the others (docs/accuracy.md,
+"Fewer cameras")."""
 SAID_LIMITS = 4
 """How many of the joint angles held at a limit the end of a run names, the most held first."""
 
 
 @dataclass(frozen=True)
 class TakeOptions:
-    """The options of ``hullcap track`` (see its ``--help`` or docs/cli.md).
+    """The options of ``hullcap track`` (see its ``--help`` or docs/cli.md): the tracker's
+    that a take may set (:attr:`tracking`, the flag fields of :class:`TrackerOptions`) and
+    the run's own below. ``session.toml`` takes them as flat keys (:meth:`from_table`)."""
 
-    Attributes:
-        voxel: visual hull voxel size (metres).
-        background: ``"statistical"`` or ``"mog2"``, when the take has no silhouettes.
-        ignore_silhouettes: subtract the background even when the take has silhouettes.
-        volume: the capture volume ``(x0, y0, z0, x1, y1, z1)`` in metres (``None``: what
-            every camera sees).
-        frames: track only the first this many frames (``None``: all).
-        refine_joints: refine the subject's model from the first seconds of motion (a
-            given model is used as it is).
-        hand_reach: the part of each hand the fits keep (``TrackerOptions.hand_reach``;
-            1 = whole hands; ``None``: 0.6 with the take's own silhouettes, 1 otherwise).
-        wrists: track with hands that turn at the wrists (``TrackerOptions.wrists``;
-            ``False``: the paper's 29 DOF, hands rigid with the forearms).
-        overlays: write ``overlay/<cam>.mp4``.
-        interpolate: fill failed frames between fitted ones in the outputs.
-        smooth: also write trajectories low-passed at this cut-off (Hz).
-        image_scale: read every image resized by this factor in (0, 1]
-            (:class:`~hullcap._sequence.Sequence`'s `image_scale`).
-        cameras: track with only these cameras, by name (``None``: all).
-        leave_out: track without these cameras, by name.
-    """
+    tracking: TrackerOptions = field(default_factory=TrackerOptions)
+    volume: tuple[float, ...] | None = option(None, rule=or_none(VOLUME), flag=True, metavar="X0,Y0,Z0,X1,Y1,Z1",
+                                              help="the capture volume to carve the hull in, metres (default: what "
+                                                   "every camera sees)")
+    frames: int | None = option(None, rule=or_none(AT_LEAST_ONE), flag=True, metavar="N",
+                                help="track only the first N frames (default: all)")
+    image_scale: float = option(1.0, rule=FRACTION, flag=True, metavar="S",
+                                help="read every image resized by S in (0, 1], the calibration scaled with it: for "
+                                     "cameras of more pixels than the hull needs, e.g. 0.5 for 1920x1080")
+    cameras: tuple[str, ...] | None = option(None, rule=or_none(CAMERA_NAMES), flag=True, metavar="NAMES",
+                                             help="track with only these cameras of cameras.json, by name, separated "
+                                                  "by commas (default: all)")
+    leave_out: tuple[str, ...] = option((), rule=CAMERA_NAMES, flag=True, metavar="NAMES",
+                                        help="track without these cameras, by name, separated by commas: one "
+                                             "`hullcap calib check` names, or one whose files are missing")
+    overlays: bool = option(True, rule=BOOL, flag=True, help="write the overlay videos (overlay/<cam>.mp4)")
+    interpolate: bool = option(False, rule=BOOL, flag=True,
+                               help="fill failed frames between fitted ones from their neighbours in the outputs "
+                                    "(marked 'interpolated'; pose.npz keeps the raw result)")
+    smooth: float | None = option(None, rule=or_none(POSITIVE), flag=True, metavar="HZ",
+                                  help="also low-pass filter the joint trajectories without lag (Butterworth, "
+                                       "forwards and backwards) with this cut-off: track writes joints_smooth.csv, "
+                                       "export filters what it writes")
 
-    voxel: float = 0.01
-    background: str = "statistical"
-    ignore_silhouettes: bool = False
-    volume: tuple[float, ...] | None = None
-    frames: int | None = None
-    refine_joints: bool = True
-    hand_reach: float | None = None
-    wrists: bool = True
-    overlays: bool = True
-    interpolate: bool = False
-    smooth: float | None = None
-    image_scale: float = 1.0
-    cameras: tuple[str, ...] | None = None
-    leave_out: tuple[str, ...] = ()
+    def __post_init__(self):
+        check_fields(self)
+
+    @classmethod
+    def keys(cls) -> list[str]:
+        """The keys a take's table in ``session.toml`` may have."""
+        return [f.name for f in flag_fields(TrackerOptions)] + [f.name for f in flag_fields(cls)]
 
     @classmethod
     def from_table(cls, table: dict, where: str, base: TakeOptions | None = None) -> TakeOptions:
         """Options from a TOML table (`where` names it in errors) over `base`: every key
-        must be a field, of its type."""
+        must be an option, of its type."""
         base = base or cls()
-        known = [f.name for f in fields(cls)]
-        values = asdict(base)
+        ours = {f.name for f in flag_fields(cls)}
+        tracking = {f.name for f in flag_fields(TrackerOptions)}
+        own, theirs = {}, {}
         for key, value in table.items():
-            if key not in known:
-                raise OptionsError(f"{where}: unknown option {key!r}; options: {', '.join(known)}")
-            values[key] = _checked(key, value, where)
-        return cls(**values)
+            if key in ours:
+                own[key] = from_value(cls, key, value, where)
+            elif key in tracking:
+                theirs[key] = from_value(TrackerOptions, key, value, where)
+            else:
+                raise OptionsError(f"{where}: unknown option {key!r}; options: {', '.join(cls.keys())}")
+        return replace(base, tracking=replace(base.tracking, **theirs), **own)
 
+    @classmethod
+    def from_arguments(cls, args) -> TakeOptions:
+        """The options a command line's parsed `args` give (:func:`hullcap._options.add_flags`)."""
+        return from_arguments(cls, args, tracking=from_arguments(TrackerOptions, args))
 
-def _checked(key: str, value, where: str):
-    """`value` of option `key` as its field wants it, or an error naming both."""
-    def bad(want: str):
-        return OptionsError(f"{where}: {key} must be {want}, got {value!r}")
-
-    if key in ("ignore_silhouettes", "refine_joints", "wrists", "overlays", "interpolate"):
-        if not isinstance(value, bool):
-            raise bad("true or false")
-        return value
-    if key == "background":
-        if value not in ("statistical", "mog2"):
-            raise bad("'statistical' or 'mog2'")
-        return value
-    if key == "frames":
-        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-            raise bad("a whole number of frames, at least 1")
-        return value
-    if key in ("cameras", "leave_out"):
-        if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
-            raise bad('a list of camera names, ["cam0", "cam2"]')
-        return tuple(value)
-    if key == "volume":
-        if (not isinstance(value, list) or len(value) != 6
-                or not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) for v in value)):
-            raise bad("six numbers [x0, y0, z0, x1, y1, z1] in metres")
-        return tuple(float(v) for v in value)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value < math.inf:
-        raise bad("a positive number")
-    if key in ("hand_reach", "image_scale") and value > 1:
-        raise bad("a fraction in (0, 1]")
-    return float(value)  # voxel, smooth, hand_reach, image_scale
+    def to_dict(self) -> dict:
+        """The options as ``session.toml`` keys them (what ``take.json`` records)."""
+        tracking = {f.name: getattr(self.tracking, f.name) for f in flag_fields(TrackerOptions)}
+        return {**tracking, **{f.name: getattr(self, f.name) for f in flag_fields(type(self))}}
 
 
 @dataclass(frozen=True)
@@ -150,18 +129,14 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     from hullcap._results import RECOVERED
     from hullcap._rig import MIN_SURROUND, surround
     from hullcap._sequence import Sequence
-    from hullcap._tracking import Tracker, TrackerOptions
+    from hullcap._tracking import Tracker
 
     say = say or (lambda line: None)
     warn = warn or say
     t0 = time.perf_counter()
     seq = Sequence(sequence, image_scale=options.image_scale, cameras=options.cameras, leave_out=options.leave_out)
     body = BodyModel.load(model) if model is not None else None
-    tracker_options = TrackerOptions(voxel_size=options.voxel, background=options.background,
-                                     use_silhouettes=not options.ignore_silhouettes,
-                                     refine_joints=options.refine_joints, hand_reach=options.hand_reach,
-                                     wrists=options.wrists)
-    tracker = Tracker(seq, model=body, options=tracker_options, volume=options.volume)
+    tracker = Tracker(seq, model=body, options=options.tracking, volume=options.volume)
     say(f"{seq}: capture volume {format_bounds(tracker.volume)}"
         + (" (given)" if options.volume else " (every camera sees it; --volume to change)"))
     spread = surround(seq.cameras, axes_meeting_point(seq.cameras))
@@ -201,3 +176,21 @@ def limits_held_line(held) -> str:
     return (f"frames with a joint angle held at a limit of the model, where it is a bound and not a "
             f"measurement: {shown}{more} (report.png)")
 
+
+def options_page() -> str:
+    """The options reference as Markdown, made from the option classes (docs/options.md)."""
+    return "\n".join([
+        "# Options reference", "",
+        "Generated from the option classes by `hullcap._take.options_page()` (`make docs`); "
+        "`tests/test_docs.py` checks it is current. Each option is declared once, with its default, rule and "
+        "help, in the class that owns it; the flags of `hullcap track` ([cli.md](cli.md)) and the keys of "
+        "`session.toml` ([batch.md](batch.md)) are made from these.", "",
+        "## A take's options", "",
+        "`hullcap track --<name-with-dashes>` (a true default is turned off by `--no-<name>`), a key of "
+        "`session.toml`, or `TakeOptions` in Python (the tracker's among them in its `tracking`).", "",
+        reference_table(TrackerOptions) + "\n" + reference_table(TakeOptions).split("\n", 2)[2], "",
+        "## Every option of the tracker (`TrackerOptions`)", "",
+        "Distances in metres, angles in radians, times in seconds, qualities fractions of points (0 to 1). Why "
+        "the defaults are what they are, with the runs behind them: the accuracy notebook "
+        "([notebooks/accuracy.md](notebooks/accuracy.md)).", "",
+        reference_table(TrackerOptions, every=True), ""])

@@ -41,6 +41,7 @@ from hullcap._carver import Carver
 from hullcap._checkpoint import PROBLEMS, Checkpoint, run_settings
 from hullcap._files import NPZ_ERRORS
 from hullcap._frame_fitter import FrameFitter
+from hullcap._options import AT_LEAST_ONE, or_none
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._results import TrackingResult, check_cutoff
@@ -49,7 +50,7 @@ from hullcap._segmenter import Segmenter
 from hullcap._sequence import MIN_CAMERAS, Sequence
 from hullcap._subject_builder import SubjectBuilder
 from hullcap._tracking_options import TrackerOptions
-from hullcap.errors import OptionsError, SequenceError
+from hullcap.errors import SequenceError
 from hullcap.export import write_outputs, write_overlays, write_report
 
 __all__ = ["Tracker", "TrackerOptions"]
@@ -101,8 +102,7 @@ class Tracker:
         `interpolate` and `smooth_hz` go to :func:`hullcap.export.write_outputs`. The
         checkpoint stays until every output is written, so an interruption at any point
         resumes without tracking again what was tracked."""
-        if frames is not None and frames < 1:
-            raise OptionsError(f"frames must be at least 1, got {frames}")
+        or_none(AT_LEAST_ONE).check("frames", frames)
         if smooth_hz is not None:
             check_cutoff(smooth_hz, self.sequence.fps)  # now, not after tracking
         out = Path(out)

@@ -206,12 +206,12 @@ type CutTuple<'py> = (
 
 /// Coarse-to-fine carving into a box of kept finest voxels; see `hullcap._engine.pyi`.
 #[pyfunction]
-#[pyo3(signature = (lo, voxel, fine, levels, views, tolerance, min_views, threads=None))]
+#[pyo3(signature = (lo, voxel_size, fine, levels, views, tolerance, min_views, threads=None))]
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 pub(crate) fn carve<'py>(
     py: Python<'py>,
     lo: &Bound<'py, PyAny>,
-    voxel: f64,
+    voxel_size: f64,
     fine: [i64; 3],
     levels: i64,
     views: Vec<Bound<'py, PyAny>>,
@@ -220,9 +220,9 @@ pub(crate) fn carve<'py>(
     threads: Option<i64>,
 ) -> PyResult<([i64; 3], Bound<'py, PyArrayDyn<bool>>, usize)> {
     let lo: [f64; 3] = numbers(lo, "lo", &[])?;
-    if !(voxel > 0.0 && voxel.is_finite()) || lo.iter().any(|v| !v.is_finite()) {
+    if !(voxel_size > 0.0 && voxel_size.is_finite()) || lo.iter().any(|v| !v.is_finite()) {
         return Err(ArrayError::new_err(format!(
-            "lo must be finite and voxel finite and > 0, got {lo:?} and {voxel}"
+            "lo must be finite and voxel_size finite and > 0, got {lo:?} and {voxel_size}"
         )));
     }
     let fine = [
@@ -250,7 +250,7 @@ pub(crate) fn carve<'py>(
     let carved = detached(py, || {
         hullcap_raster::carve(
             lo,
-            voxel,
+            voxel_size,
             fine,
             levels as u32,
             &carve_views,
