@@ -9,6 +9,7 @@
 #                Python found, with the newest dependencies its ranges allow, tracking a take
 #   make test-lowest  make test in .venv-lowest, every dependency at the lowest version allowed
 #   make lock    resolve requirements/lock.txt (newest allowed) and lowest.txt again
+#   make segment-models  the learned segmenter's model files, as a package (every set-up above does it)
 #
 # Every pip install here is constrained by the lock (PIP_CONSTRAINT): a fresh machine gets the
 # versions that were tested, whatever the registries hold today.
@@ -23,8 +24,9 @@ export PIP_CONSTRAINT := $(abspath $(LOCK))
 ENGINE_SOURCES := Cargo.toml pyproject.toml $(wildcard Cargo.lock) \
                   $(shell find crates -name '*.rs' -o -name Cargo.toml)
 ENGINE := $(VENV)/.engine-built
+MODELS := $(VENV)/.segment-models
 
-.PHONY: demo test test-lowest bench paper docs wheel check-wheel lock engine no-rayon clean
+.PHONY: demo test test-lowest bench paper docs wheel check-wheel lock engine segment-models no-rayon clean
 
 demo: $(ENGINE)
 	$(VENV)/bin/hullcap demo
@@ -92,10 +94,20 @@ $(PY):
 # Rebuilt whenever a Rust source or a manifest changes. A stale extension next to the
 # Python sources would shadow the new one, so it goes first. The `bench` extra brings the
 # peers the demo and benchmarks compare against.
-$(ENGINE): $(PY) $(ENGINE_SOURCES)
+$(ENGINE): $(PY) $(ENGINE_SOURCES) $(MODELS)
 	rm -f python/hullcap/_engine*.so
-	$(VENV)/bin/maturin develop --release --extras test,bench
+	$(VENV)/bin/maturin develop --release --extras test,bench,segment
 	touch $@
 
+# The learned segmenter's model files (hullcap[segment]): taken out of MediaPipe's wheel on PyPI,
+# checked against its hash, and installed as the hullcap-segment-models package.
+$(MODELS): $(PY) packages/segment-models/fetch.py packages/segment-models/pyproject.toml
+	$(PY) packages/segment-models/fetch.py
+	$(VENV)/bin/pip install --quiet ./packages/segment-models
+	touch $@
+
+segment-models: $(MODELS)
+
 clean:
-	rm -rf .venv .venv-lowest target dist python/hullcap/_engine*.so
+	rm -rf .venv .venv-lowest target dist python/hullcap/_engine*.so packages/segment-models/build \
+	  packages/segment-models/*.egg-info packages/segment-models/hullcap_segment_models/*.tflite

@@ -1,7 +1,9 @@
 """Accuracy and speed on the development set: realistic bodies driven by real motion.
 
 Renders each sequence once into ``data/devset/`` (ignored by git), tracks it as
-``hullcap track`` does, from the colour frames (background subtraction) and, with
+``hullcap track`` does, from the colour frames (the background test fused with the learned
+person segmenter where it is installed, ``--segmenter colour`` the background test alone;
+the table names the first ``learned``, the second ``colour``) and, with
 ``--silhouettes exact``, from the exact masks too (``surface``: given the true body surface
 of each frame instead of its hull, what a perfect hull would give; with whole hands, since
 that surface keeps the fingers a hull loses), and prints one table: per sequence
@@ -11,7 +13,8 @@ joint's constant offset removed in the world, as the set's ``score.py`` does, an
 body's own frame, where a difference of joint-centre conventions stays constant when the
 person turns round), frames lost, frames re-acquired, false-good frames (marked good or
 recovered, yet a mean joint error over 80 mm or a joint over 150 mm), 3DPCK@150 (the share
-of joint positions within 150 mm of the truth, a lost frame's all misses) and frames/s;
+of joint positions within 150 mm of the truth, a lost frame's all misses), the tracked
+masks' mean IoU with the exact ones (from colour frames) and frames/s;
 then each run's
 error per joint and the joint angles its fits held at a limit of the model (where an
 angle is a bound, not a measurement: a limit the motion needs). Each run's folder
@@ -29,7 +32,7 @@ of the cores: the same joints to the byte (a fit does not depend on its threads)
 whole table sooner, but each run's frames/s then measure a machine it shared.
 
     .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface] [--every K]
-        [--cameras K] [--models-from RUNS] [--jobs N]
+        [--cameras K] [--models-from RUNS] [--segmenter auto|learned|colour] [--jobs N]
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ import devset
 from hullcap._body import BodyModel
 from hullcap._carver import Carver
 from hullcap._results import RECOVERED, STATUS_NAMES
+from hullcap._options import add_flags
 from hullcap._sequence import MIN_CAMERAS, Sequence
 from hullcap._tracking import Tracker, TrackerOptions
 
@@ -82,6 +86,10 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
         tracker.carver = TrueSurfaceCarver(tracker.carver, seq)
     else:
         tracker = Tracker(seq, model=model, options=options)
+    if tracker.segmenter.learned:  # from colour frames with the learned segmenter: its runs kept apart
+        mode = "learned"
+        run_dir = run_dir.with_name(run_dir.name.removesuffix("-colour") + "-learned")
+    ious = _measuring_masks(tracker.segmenter, seq) if mode in ("colour", "learned") else {}
     (run_dir / "frames.csv").unlink(missing_ok=True)  # ours, not a run's: the run would refuse the folder
     t0 = time.perf_counter()
     result = tracker.run(run_dir, resume=False, show_progress=show_progress, frames=frames)
@@ -106,9 +114,31 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
             "mpjpe_offset_removed_mm": whole.mpjpe_offset_removed_mm,
             "mpjpe_body_offset_removed_mm": whole.mpjpe_body_offset_removed_mm, "lost": whole.lost,
             "reacquired": int((result.status == RECOVERED).sum()), **honesty,
+            "mask_iou": float(np.mean(list(ious.values()))) if ious else float("nan"),
             "fps": n / seconds, "fit_fps": n / max(result.seconds.get("fit", 0.0), 1e-9),
             "worst_frame": int(np.nanargmax(np.where(result.failed, -1, err))),
             "per_joint_mm": whole.per_joint_mm, "limits_held": result.limits_held()}
+
+
+def _measuring_masks(segmenter, seq: Sequence) -> dict[int, float]:
+    """Make `segmenter` record, for each frame it segments, the mean over the views of its
+    masks' IoU with the sequence's exact silhouettes (the last masks of a frame count: the
+    tracked ones); the returned dict fills as the run goes."""
+    ious: dict[int, float] = {}
+    segment = segmenter.segment
+
+    def measured(frame: int, priors=None):
+        masks, unsure = segment(frame, priors)
+        views = []
+        for cam, mask in zip(seq.cameras, masks):
+            exact = seq.mask(frame, cam.name) > 0
+            union = np.count_nonzero(exact | (mask > 0))
+            views.append(np.count_nonzero(exact & (mask > 0)) / union if union else 1.0)
+        ious[frame] = float(np.mean(views))
+        return masks, unsure
+
+    segmenter.segment = measured
+    return ious
 
 
 def _run_sharing(threads: int, *args) -> dict:
@@ -138,7 +168,7 @@ def table(rows: list[dict]) -> str:
     limbs = list(devset.LIMBS)
     head = ("| sequence | cams | silhouettes | " + " | ".join(f"{limb} (%)" for limb in limbs)
             + " | static (mm) | MPJPE raw (mm) | offset removed (mm) | in the body's frame (mm) | lost | re-acquired"
-            + " | false good | 3DPCK@150 (%) | frames/s | fit frames/s |")
+            + " | false good | 3DPCK@150 (%) | mask IoU | frames/s | fit frames/s |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         lines.append(f"| {r['sequence']} | {r['cameras']} | {r['silhouettes']} | "
@@ -146,7 +176,7 @@ def table(rows: list[dict]) -> str:
                      + f" | {r['static_mm']:.1f} | {r['mpjpe_mm']:.1f} | {r['mpjpe_offset_removed_mm']:.1f} | "
                        f"{r['mpjpe_body_offset_removed_mm']:.1f} | "
                        f"{r['lost']} of {r['frames']} | {r['reacquired']} | {r['false_good']} | {r['pck150']:.1f} | "
-                       f"{r['fps']:.1f} | {r['fit_fps']:.1f} |")
+                       f"{r['mask_iou']:.3f} | {r['fps']:.1f} | {r['fit_fps']:.1f} |")
     return "\n".join(lines)
 
 
@@ -166,6 +196,7 @@ def main():
                     help="give each run the subject's model of the same run in RUNS (an earlier --out)")
     ap.add_argument("--cameras", type=int, metavar="K",
                     help="track with K of each sequence's cameras, spread evenly round its rig (default: all)")
+    add_flags(ap, TrackerOptions, ["segmenter"])
     ap.add_argument("--jobs", type=int, default=1, metavar="N",
                     help="track N runs at a time (frames/s are then those of a shared machine)")
     args = ap.parse_args()
@@ -178,7 +209,7 @@ def main():
         ap.error(f"--jobs must be 1 or more, got {args.jobs}")
     if args.cameras is not None and args.cameras < MIN_CAMERAS:
         ap.error(f"--cameras must be {MIN_CAMERAS} or more, got {args.cameras}")
-    options = TrackerOptions(refine_joints=args.refine)
+    options = TrackerOptions(refine_joints=args.refine, segmenter=args.segmenter)
     models_from = None if args.models_from is None else Path(args.models_from)
     names = args.only or devset.names(devset_dir)
     for name in names:  # rendered here, once, before any run reads it

@@ -3,6 +3,7 @@ one bad view leaves that view out of that frame, the run finishes and says what 
 interrupted outputs resume without tracking again; outputs follow the umask."""
 
 import json
+from dataclasses import replace
 import os
 import shutil
 import stat
@@ -14,6 +15,7 @@ from hullcap import Sequence, Tracker, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._cli import main
 from hullcap._frame_fitter import FrameFitter
+from hullcap._person import available as person_available
 from hullcap._subject_builder import SubjectBuilder
 from hullcap._synth import synthesize
 from hullcap.errors import CalibrationError, OptionsError, ResultsError, SequenceError
@@ -98,22 +100,27 @@ def test_one_broken_view_leaves_only_that_view_out(clean, tmp_path, capsys):
 
 
 def test_a_camera_without_its_background_is_left_out_of_every_frame(clean, tmp_path):
-    """Background subtraction needs each camera's empty scene: a camera without one is left
-    out of the whole run (said once, not for every frame) and the others track; a sequence
-    without any is refused before anything is tracked, saying what is needed."""
+    """Background subtraction needs each camera's empty scene: from colour alone, a camera
+    without one is left out of the whole run (said once, not for every frame) and the
+    others track; a sequence without any is refused before anything is tracked, saying
+    what is needed. The learned segmenter, where it runs, segments such a camera alone."""
     from hullcap._evaluate import accuracy
 
     seq = copy(clean, tmp_path)
     (seq / "background" / "cam3.png").unlink()
-    result = Tracker(Sequence(seq), options=FAST).run(tmp_path / "out", show_progress=False)
-    assert not result.failed.any() and accuracy(result, seq).mean_mm < 20
-    problems = json.loads((tmp_path / "out" / "problems.json").read_text())["problems"]
-    (left_out,) = [p for p in problems if p["camera"] == "cam3"]
-    assert left_out["frame"] is None and left_out["file"].endswith("background/cam3.png")
-    assert "left out of every frame: no usable background image (missing" in left_out["what"]
+    kinds = ("colour", "learned") if person_available() else ("colour",)
+    for kind in kinds:
+        out = tmp_path / f"out-{kind}"
+        result = Tracker(Sequence(seq), options=replace(FAST, segmenter=kind)).run(out, show_progress=False)
+        assert not result.failed.any() and accuracy(result, seq).mean_mm < 20
+        problems = json.loads((out / "problems.json").read_text())["problems"]
+        (left_out,) = [p for p in problems if p["camera"] == "cam3"]
+        assert left_out["frame"] is None and left_out["file"].endswith("background/cam3.png")
+        said = "left out of every frame" if kind == "colour" else "segmented by the learned person segmenter alone"
+        assert f"{said}: no usable background image (missing" in left_out["what"]
     shutil.rmtree(seq / "background")
     with pytest.raises(SequenceError, match=r"no camera has a usable background image .* background/<camera>.png"):
-        Tracker(Sequence(seq), options=FAST).run(tmp_path / "out2", show_progress=False)
+        Tracker(Sequence(seq), options=replace(FAST, segmenter="colour")).run(tmp_path / "out2", show_progress=False)
     assert not (tmp_path / "out2" / "pose.npz").exists()
 
 
@@ -231,12 +238,12 @@ def test_a_camera_without_files_is_left_out_by_name(clean, tmp_path, monkeypatch
         Sequence(seq, leave_out="cam2")
     out = tmp_path / "out"
     assert main(["track", str(seq), "--out", str(out), "--leave-out", "cam2", "--frames", "2",
-                 "--no-refine-joints"]) == 0
+                 "--no-refine-joints", "--segmenter", "colour"]) == 0
     captured = capsys.readouterr()
     assert "5 of 6 cameras" in captured.out
-    # Fewer than six views from colour frames: the measured risk, and what to do about it.
-    assert "hullcap: warning: 5 cameras and background subtraction" in captured.err
-    assert "silhouettes/<cam>/ track better with few views" in captured.err
+    # Fewer than six views from colour alone: the measured risk, and what to do about it.
+    assert "hullcap: warning: 5 cameras and background subtraction alone" in captured.err
+    assert "the learned segmenter, or a segmenter's masks in silhouettes/<cam>/, track better" in captured.err
     assert sorted(p.stem for p in (out / "overlay").glob("*.mp4")) == five.cameras.names
     # A run resumes only with the cameras it was tracked with.
     monkeypatch.setattr(tracking, "write_overlays", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))

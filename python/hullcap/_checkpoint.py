@@ -27,16 +27,17 @@ PROBLEMS = "problems.json"
 
 
 def run_settings(options: TrackerOptions, frames: int, sequence: Sequence, volume,
-                 model: BodyModel | None) -> dict:
+                 model: BodyModel | None, learned: bool) -> dict:
     """What decides a run's results besides the sequence: the options, the number of
-    `frames`, the image scale, the capture `volume` and a digest of the `model` given."""
+    `frames`, the image scale, the capture `volume`, a digest of the `model` given, and
+    whether the learned segmenter ran (`learned`: by default, where it is installed)."""
     given = None
     if model is not None:
         digest = hashlib.sha256(np.ascontiguousarray(model.vertices).tobytes())
         digest.update(np.ascontiguousarray(model.links).tobytes())
         given = digest.hexdigest()[:16]
     return {**settings(options), "frames": frames, "image_scale": sequence.image_scale,
-            "volume": np.asarray(volume).ravel().tolist(), "model given": given}
+            "volume": np.asarray(volume).ravel().tolist(), "model given": given, "learned segmenter": learned}
 
 
 class Checkpoint:

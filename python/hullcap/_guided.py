@@ -82,6 +82,14 @@ class GuidedOptions:
             pixel noise assumed by the background model).
         texture_seen, texture_hidden: correlation at or above which the background counts as
             seen (−`texture_weight`), at or below which as hidden (+), linear between.
+        learned_weight: weight of the learned person segmenter's log-odds (:mod:`hullcap._person`),
+            where it ran: its certainty counts against the background test's and the
+            colours', so that each covers what the other misses (0: left out).
+        learned_clip: those log-odds are clipped to ±this: a confident verdict of the
+            segmenter (4 ≈ 55 to 1) outweighs the background test's doubt (at most 3 noise
+            spreads × `background_weight`) but not its certainty that a pixel differs from
+            the room (up to ``FOREGROUND_EVIDENCE``), where a fast limb the network blurs
+            still shows.
         sure_background: log-odds (after smoothing) at or below −this that call a pixel
             background for sure: the tolerant hull (``TrackerOptions.hull_tolerance``) never
             overrules the view there (:meth:`GuidedSegmenter.segment`).
@@ -106,6 +114,8 @@ class GuidedOptions:
     texture_seen: float = 0.8
     texture_hidden: float = 0.5
     sure_background: float = 2.0
+    learned_weight: float = 1.0
+    learned_clip: float = 4.0
 
     def __post_init__(self):
         if not (self.band > 0 and self.band_frame_rate > 0 and (self.outer_band is None or self.outer_band > 0)):
@@ -121,6 +131,9 @@ class GuidedOptions:
             raise OptionsError(f"GuidedOptions.texture_window must be odd and >= 3, got {self.texture_window}")
         if not self.sure_background >= 0:
             raise OptionsError(f"GuidedOptions.sure_background must be >= 0 (log-odds), got {self.sure_background}")
+        if not (self.learned_weight >= 0 and self.learned_clip > 0):
+            raise OptionsError(f"GuidedOptions: learned_weight must be >= 0 and learned_clip > 0, got "
+                               f"{self.learned_weight} and {self.learned_clip}")
         if not -1 <= self.texture_hidden < self.texture_seen <= 1:
             raise OptionsError("GuidedOptions: need -1 <= texture_hidden < texture_seen <= 1 (correlations), got "
                                f"{self.texture_hidden} and {self.texture_seen}")
@@ -272,18 +285,25 @@ class GuidedSegmenter:
         background's ``evidence(image)`` when it was computed already."""
         return self.segment(image, prior, evidence)[0]
 
-    def segment(self, image: np.ndarray, prior: np.ndarray | None,
-                evidence: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    def segment(self, image: np.ndarray, prior: np.ndarray | None, evidence: np.ndarray | None = None,
+                learned: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
         """``(mask, unsure)``: :meth:`mask`'s silhouette, and (H, W) bool where its verdict
         was not sure background (log-odds above −``options.sure_background``; False far
-        from the person, where the statistical test decides alone), the only pixels
-        where a tolerant hull may overrule this view; ``None`` without a prior."""
+        from the person, where the evidence without the prior decides), the only pixels
+        where a tolerant hull may overrule this view; ``None`` without a prior. `learned`:
+        the learned segmenter's probability of each pixel (:mod:`hullcap._person`), fused
+        with the rest where given (:func:`learned_logit`)."""
         o = self.options
         if evidence is None:
             evidence = self.background.evidence(image)
         box = None if prior is None else _box(prior)
         if box is None:
-            return self.background.mask(image, evidence), None
+            if learned is None:
+                return self.background.mask(image, evidence), None
+            unguided = _smoothed(self._evidence_logit(evidence) + learned_logit(learned, o), o.smooth)
+            raw = cv2.compare(unguided, 0.0, cv2.CMP_GT)
+            cleaned = clean_mask(raw, self.background.min_blob, self.background.max_hole)
+            return half_covered(cleaned, evidence, self.background.thresholds.chromaticity), None
         x, y, w, h = box
         pad = int(round(o.reach * h))
         y0, y1 = max(0, y - pad), min(image.shape[0], y + h + pad)
@@ -297,15 +317,39 @@ class GuidedSegmenter:
             None if table is None else (table, self.colours.bins))
         if self.texture is not None:
             logit += o.texture_weight * self.texture.evidence(image, roi)
-        if o.smooth > 0:
-            logit = cv2.GaussianBlur(logit, (0, 0), o.smooth)
-        raw = cv2.compare(evidence, 0.0, cv2.CMP_GT)
+        if learned is None:
+            raw = cv2.compare(evidence, 0.0, cv2.CMP_GT)
+        else:
+            learned = learned_logit(learned, o)
+            logit += learned[roi]
+            raw = cv2.compare(_smoothed(self._evidence_logit(evidence) + learned, o.smooth), 0.0, cv2.CMP_GT)
+        logit = _smoothed(logit, o.smooth)
         raw[roi] = cv2.compare(logit, 0.0, cv2.CMP_GT)
         unsure = np.zeros(prior.shape, bool)
         unsure[roi] = logit > -o.sure_background
         area = float(np.count_nonzero(prior))
         cleaned = clean_mask(raw, max(1, int(o.min_blob * area)), int(o.max_hole * area))
         return half_covered(cleaned, evidence, self.background.thresholds.chromaticity), unsure
+
+    def _evidence_logit(self, evidence: np.ndarray) -> np.ndarray:
+        """The background test's term of the log-odds over a whole view, as
+        :func:`~hullcap._engine.guided_logit` takes it: the evidence clipped into −3 …
+        ``FOREGROUND_EVIDENCE``, its negative part weighed by ``background_weight``."""
+        e = np.clip(evidence, -3.0, FOREGROUND_EVIDENCE)
+        return np.where(e > 0, e, np.float32(self.options.background_weight) * e).astype(np.float32)
+
+
+def learned_logit(probability: np.ndarray, options: GuidedOptions) -> np.ndarray:
+    """The learned segmenter's term of the log-odds: ``learned_weight`` times its
+    probability's log-odds clipped into ±``learned_clip`` ((H, W) float32)."""
+    limit = 1.0 / (1.0 + np.exp(options.learned_clip))  # the probability whose log-odds is -learned_clip
+    p = np.clip(probability, limit, 1.0 - limit)
+    return (np.float32(options.learned_weight) * np.log(p / (1.0 - p))).astype(np.float32)
+
+
+def _smoothed(logit: np.ndarray, sigma: float) -> np.ndarray:
+    """`logit` blurred by a Gaussian of `sigma` pixels (0: as it is)."""
+    return cv2.GaussianBlur(logit, (0, 0), sigma) if sigma > 0 else logit
 
 
 def _ramp(prior: np.ndarray, box, roi, band: float, outer: float) -> np.ndarray:

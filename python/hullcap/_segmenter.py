@@ -1,6 +1,9 @@
-"""The silhouettes of a tracking run (docs/design.md, "Silhouettes"): each camera's mask of
-each frame, from the sequence's own masks or by background subtraction, guided by the model
-at its predicted pose and by the subject's colours (:mod:`hullcap._guided`).
+"""The silhouettes of a tracking run (docs/design.md, "Silhouettes"; docs/segmentation.md):
+each camera's mask of each frame, from the sequence's own masks, or from the evidence of the
+background test and of the learned person segmenter (:mod:`hullcap._person`, when installed)
+fused per pixel, guided by the model at its predicted pose and by the subject's colours
+(:mod:`hullcap._guided`). A camera without a background image is segmented by the learned
+segmenter alone, or left out without it.
 
 One :class:`Segmenter` serves a run: it builds each camera's background model once, reads
 frames ahead on a second thread while the engine fits the frame before
@@ -21,13 +24,14 @@ import numpy as np
 from hullcap._body import BodyModel
 from hullcap._fitting import PoseParameters
 from hullcap._guided import GuidedSegmenter
+from hullcap._person import PersonSegmenter, PersonView, missing
 from hullcap._problems import ProblemLog
 from hullcap._render import model_silhouettes
 from hullcap._sequence import Sequence
 from hullcap._silhouette import background_model
 from hullcap._threads import ReadAhead, over_views
 from hullcap._tracking_options import TrackerOptions
-from hullcap.errors import SequenceError, ViewError
+from hullcap.errors import OptionsError, SequenceError, ViewError
 
 __all__ = ["Segmenter"]
 
@@ -38,11 +42,14 @@ LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
 
 @dataclass
 class _Input:
-    """One camera's input of one frame: its mask, or its image and background evidence."""
+    """One camera's input of one frame: its mask, or its image and the background test's
+    evidence; and what the learned segmenter saw (None where it did not run, or found
+    nobody)."""
 
     mask: np.ndarray | None = None
     image: np.ndarray | None = None
     evidence: np.ndarray | None = None
+    person: PersonView | None = None
 
 
 class Segmenter:
@@ -58,6 +65,9 @@ class Segmenter:
         """The guided masks' options at the sequence's frame rate."""
         self._backgrounds = None
         self._guided = None
+        self.learned = self._learned_wanted()
+        """Whether the learned person segmenter runs (``TrackerOptions.segmenter``)."""
+        self._people: list | None = None  # each camera's PersonSegmenter, once needed
         # Cameras without a usable background image, left out of every frame: name → why.
         self.no_background: dict[str, ViewError] = {}
         self.broken: set = set()
@@ -71,11 +81,25 @@ class Segmenter:
         # teaching reads instead of decoding them again: a video camera's reader is the
         # read-ahead thread's meanwhile.
         self._segmented: tuple[int, list] = (-1, [])
+        self.people: tuple[int, list[PersonView | None]] = (-1, [])
+        """The last frame segmented and what the learned segmenter saw of the person in
+        each of its views (None where it did not run or found nobody)."""
 
     @property
     def given(self) -> bool:
         """Whether the masks are the sequence's own (else by background subtraction)."""
         return not self.options.ignore_silhouettes and self.sequence.has_silhouettes
+
+    def _learned_wanted(self) -> bool:
+        """Whether the learned segmenter runs: asked (OptionsError when it cannot), or by
+        default wherever it is installed; never with the sequence's own masks."""
+        kind = self.options.segmenter
+        if self.given or kind == "colour":
+            return False
+        why = missing()
+        if kind == "learned" and why is not None:
+            raise OptionsError(f"segmenter 'learned': {why}")
+        return why is None
 
     @property
     def guides(self) -> bool:
@@ -92,10 +116,12 @@ class Segmenter:
 
         def segmented(i: int):
             view = inputs[i]
-            return self._guided[i].segment(view.image, None if priors is None else priors[i], view.evidence)
+            learned = None if view.person is None else view.person.probability
+            return self._guided[i].segment(view.image, None if priors is None else priors[i], view.evidence, learned)
 
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
+        self.people = (frame, [view.person if isinstance(view, _Input) else None for view in inputs])
         segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks, unsure = [], []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
@@ -111,30 +137,39 @@ class Segmenter:
         return masks, unsure
 
     def _inputs(self, frame: int) -> list[_Input | ViewError]:
-        """What each camera gives for `frame` before any prediction: the given mask, the
-        mask of the unguided background test, or the image with the guided segmenter's
-        background evidence; or the ViewError that leaves it out. Runs on the read-ahead
-        thread: it may not touch the problem log."""
+        """What each camera gives for `frame` before any prediction: the given mask; the
+        mask of the unguided background test or of the learned segmenter alone; or the
+        image with the guided segmenter's background evidence and the learned segmenter's
+        probabilities; or the ViewError that leaves it out. Runs on the read-ahead thread:
+        it may not touch the problem log."""
         seq = self.sequence
         segmenters = None if self.given else self._segmenters()
-        inputs: list[_Input | ViewError] = []
-        for i, cam in enumerate(seq.cameras):
-            if cam.name in self.no_background:
-                inputs.append(self.no_background[cam.name])
+        images: list[np.ndarray | ViewError] = []
+        for cam in seq.cameras:
+            if cam.name in self.no_background and not self.learned:
+                images.append(self.no_background[cam.name])
                 continue
             try:
-                if self.given:
-                    inputs.append(_Input(mask=seq.mask(frame, cam.name)))
-                    continue
-                image = seq.image(frame, cam.name)
+                images.append(seq.mask(frame, cam.name) if self.given else seq.image(frame, cam.name))
             except ViewError as e:
-                inputs.append(e)
-                continue
+                images.append(e)
+        if self.given:
+            return [image if isinstance(image, ViewError) else _Input(mask=image) for image in images]
+
+        def view(i: int) -> _Input | ViewError:
+            image = images[i]
+            if isinstance(image, ViewError):
+                return image
+            person = self._people[i].find(image) if self.learned else None
+            background = self._backgrounds[i]
+            if background is None:  # no background image: the learned segmenter alone
+                mask = np.zeros(image.shape[:2], np.uint8) if person is None else person.mask()
+                return _Input(mask=mask, person=person)
             if segmenters is None:
-                inputs.append(_Input(mask=self._backgrounds[i].mask(image)))
-            else:
-                inputs.append(_Input(image=image, evidence=segmenters[i].background.evidence(image)))
-        return inputs
+                return _Input(mask=background.mask(image), person=person)
+            return _Input(image=image, evidence=segmenters[i].background.evidence(image), person=person)
+
+        return over_views(view, range(len(images)))
 
     def _images(self, frame: int) -> list[np.ndarray | None]:
         """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""
@@ -174,15 +209,16 @@ class Segmenter:
         if not self.given:
             seq.check_image_sizes()
             self._segmenters()
+            alone = "segmented by the learned person segmenter alone" if self.learned else "left out of every frame"
             for name, e in self.no_background.items():
-                self.problems.add(None, f"left out of every frame: no usable background image ({e.what})", name,
-                                  e.file)
+                self.problems.add(None, f"{alone}: no usable background image ({e.what})", name, e.file)
         return max(1, min(n, max(counts.values())))
 
     def _segmenters(self):
         """The background models (None for a camera without a usable background image, in
-        `no_background`); the guided segmenters built on them, or None. A SequenceError
-        when no camera has a background image."""
+        `no_background`) and the learned segmenters, built once; the guided segmenters
+        built on the background models, or None. A SequenceError when no camera has a
+        background image and the learned segmenter does not run."""
         if self._backgrounds is None:
             seq = self.sequence
             backgrounds = []
@@ -192,14 +228,19 @@ class Segmenter:
                 except ViewError as e:
                     self.no_background[cam.name] = e
                     backgrounds.append(None)
-            if len(self.no_background) == len(seq.cameras):
+            if len(self.no_background) == len(seq.cameras) and not self.learned:
                 first = next(iter(self.no_background.values()))
+                why = missing() or "it was turned off (segmenter 'colour')"
                 raise SequenceError(
                     f"{seq.path}: no camera has a usable background image ({first}); background subtraction "
-                    "needs background/<camera>.png of the empty scene for each camera (or a clip of it), or give "
-                    "the sequence your own masks in silhouettes/<camera>/ (docs/formats.md)")
+                    "needs background/<camera>.png of the empty scene for each camera (or a clip of it); without "
+                    f"one, the learned person segmenter segments the views, but {why}; or give the sequence your "
+                    "own masks in silhouettes/<camera>/ (docs/formats.md, docs/segmentation.md)")
+            if self.learned:
+                self._people = [PersonSegmenter() for _ in seq.cameras]
             self._backgrounds = backgrounds
-            if self.options.guided and self.options.background == "statistical":
+            guided = self.options.guided and self.options.background == "statistical"
+            if guided and any(b is not None for b in backgrounds):
                 self._guided = [None if b is None else GuidedSegmenter(b, self.guidance) for b in backgrounds]
         return self._guided
 

@@ -29,7 +29,7 @@ from hullcap._engine import background_distortions, background_evidence
 from hullcap.errors import OptionsError, SequenceError
 
 __all__ = ["BACKGROUND_MODELS", "StatisticalBackground", "Mog2Background", "background_model", "clean_mask",
-           "half_covered", "signed_distance", "distance_outside"]
+           "clean_sizes", "half_covered", "signed_distance", "distance_outside"]
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,7 @@ class StatisticalBackground:
         stack = _stack(backgrounds)
         self.shape = stack.shape[1:3]
         self.thresholds = thresholds
-        self.min_blob, self.max_hole = _clean_sizes(self.shape, min_blob, max_hole)
+        self.min_blob, self.max_hole = clean_sizes(self.shape, min_blob, max_hole)
         mean = stack.mean(0)
         self.mean = mean.astype(np.float32)
         """(H, W, 3) the expected colour E of each pixel (BGR, grey levels)."""
@@ -158,7 +158,7 @@ class Mog2Background:
                  min_blob: float = MIN_BLOB, max_hole: float | None = MAX_HOLE):
         stack = _stack(backgrounds)
         self.shape = stack.shape[1:3]
-        self.min_blob, self.max_hole = _clean_sizes(self.shape, min_blob, max_hole)
+        self.min_blob, self.max_hole = clean_sizes(self.shape, min_blob, max_hole)
         self._model = cv2.createBackgroundSubtractorMOG2(history=max(len(stack), 2),
                                                          varThreshold=var_threshold,
                                                          detectShadows=True)
@@ -176,7 +176,7 @@ BACKGROUND_MODELS = {"statistical": StatisticalBackground, "mog2": Mog2Backgroun
 default) and OpenCV's mixture of Gaussians."""
 
 
-def background_model(backgrounds, method: str = "statistical", **options):
+def background_model(backgrounds, method: str, **options):
     """A background model of one camera by `method` (:data:`BACKGROUND_MODELS`); `options`
     go to its constructor."""
     if method not in BACKGROUND_MODELS:
@@ -184,7 +184,7 @@ def background_model(backgrounds, method: str = "statistical", **options):
     return BACKGROUND_MODELS[method](backgrounds, **options)
 
 
-def _clean_sizes(shape, min_blob: float, max_hole: float | None) -> tuple[int, int | None]:
+def clean_sizes(shape, min_blob: float, max_hole: float | None) -> tuple[int, int | None]:
     """``(min_blob, max_hole)`` in pixels for images of `shape`, from fractions of their
     area (see :data:`MIN_BLOB`)."""
     for name, fraction in (("min_blob", min_blob), ("max_hole", max_hole)):

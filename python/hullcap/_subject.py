@@ -176,7 +176,7 @@ class SubjectFit:
 
 
 def build_subject(hulls, poses=None, template: BodyModel | None = None,
-                  options: SubjectOptions | None = None) -> SubjectFit:
+                  options: SubjectOptions | None = None, facing=None) -> SubjectFit:
     """Fit the template's proportions and poses to the hulls of calibration frames.
 
     Args:
@@ -188,6 +188,7 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
             ``options.calibration_limits``): frames of motion need their poses.
         template: the body to start from (default: :meth:`BodyModel.template`).
         options: see :class:`SubjectOptions`.
+        facing: with no poses, the way the person faces, as :func:`place_model` takes it.
     """
     options = options or SubjectOptions()
     hulls = [hulls] if isinstance(hulls, Surface) else list(hulls)
@@ -211,7 +212,7 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     # With no poses given every hull shows the calibration pose: fit it within its limits.
     fitted_body = template if poses is not None else _limited(template, options.calibration_limits)
     if poses is None:
-        start = place_model(fitted_body.shaped(basis, shape0), hulls[0], targets[0], options)
+        start = place_model(fitted_body.shaped(basis, shape0), hulls[0], targets[0], options, facing)
         poses = [start.pose] * len(hulls)
     engine = basis.engine(fitted_body)
     rotations = [np.asarray(p.root_rotation, float) for p in poses]
@@ -230,11 +231,14 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     return SubjectFit(model, final.pose, (final.pose, *fitted_poses[1:]), basis, np.asarray(found), final)
 
 
-def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOptions | None = None) -> FitResult:
+def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOptions | None = None,
+                facing=None) -> FitResult:
     """Fit `model` to a hull with no pose to start from: the rest pose stood on the hull's
     floor at its centre, turned to ``options.headings`` headings; each is fitted briefly,
     the ``options.keep`` that explain most of the hull both ways are fitted fully, and the
-    best of those is returned."""
+    best of those is returned. `facing` (a function of a model and a pose, > 0 where the
+    pose faces the way the person does; :func:`hullcap._person.facing_agreement`) leaves
+    out the headings it scores below 0, since a hull shows front and back alike."""
     options = options or SubjectOptions()
     v = hull.vertices
     target = target if target is not None else make_target(hull)
@@ -243,6 +247,8 @@ def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOp
     quick = options.fit.replace(rounds=1, polish=False)
     yaws = np.arange(options.headings) * 2 * np.pi / options.headings
     starts = [PoseParameters.rest(model, root, yaw) for yaw in yaws]
+    if facing is not None:
+        starts = [s for s in starts if facing(model, s) >= 0] or starts
     tried = over_fits(lambda start, threads: fit(model, target, start, quick, threads=threads), starts)
     tried.sort(key=quality, reverse=True)
     refined = over_fits(lambda r, threads: fit(model, target, r.pose, options.fit, threads=threads),

@@ -126,6 +126,7 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     `say` gets the lines the command prints, `warn` its warnings."""
     from hullcap._body import BodyModel
     from hullcap._cameras import axes_meeting_point, format_bounds
+    from hullcap._person import missing
     from hullcap._results import RECOVERED
     from hullcap._rig import MIN_SURROUND, surround
     from hullcap._sequence import Sequence
@@ -143,11 +144,16 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     if spread < MIN_SURROUND:
         warn(f"the cameras surround the person over only {spread:.0f}°: the visual hull reaches far along the "
              f"viewing direction and tracking may fail (hullcap calib show)")
-    if len(seq.cameras) < FEW_CAMERAS and not tracker.segmenter.given:
-        warn(f"{len(seq.cameras)} cameras and background subtraction: on the development set's adults filmed by "
+    colour_alone = not tracker.segmenter.given and not tracker.segmenter.learned
+    if colour_alone and options.tracking.segmenter == "auto":
+        warn(f"silhouettes from colour alone: the learned person segmenter cannot run ({missing()}); clothes the "
+             f"colour of the room go missing from the masks, and a take without background images cannot be "
+             f"tracked (docs/segmentation.md)")
+    if len(seq.cameras) < FEW_CAMERAS and colour_alone:
+        warn(f"{len(seq.cameras)} cameras and background subtraction alone: on the development set's adults filmed by "
              f"4 of their cameras, limbs the masks missed were lost for seconds, 34-48 mm mean joint error against "
-             f"22-36 mm from exact masks (docs/accuracy.md, 'Fewer cameras'); a segmenter's masks in "
-             f"silhouettes/<cam>/ track better with few views")
+             f"22-36 mm from exact masks (docs/accuracy.md, 'Fewer cameras'); the learned segmenter, or a "
+             f"segmenter's masks in silhouettes/<cam>/, track better with few views")
     result = tracker.run(out, resume=resume, show_progress=show_progress, frames=options.frames,
                          interpolate=options.interpolate, smooth_hz=options.smooth, overlays=options.overlays)
     summary = TakeSummary(frames=len(result.failed), lost=int(result.failed.sum()),

@@ -110,8 +110,8 @@ class Tracker:
         self.problems.warn = show_progress
         n = self.segmenter.prepare(frames)
         check_room(out, n * (len(self.sequence.cameras) if overlays else 1))
-        checkpoint = Checkpoint(out, self.sequence, run_settings(self.options, n, self.sequence, self.volume,
-                                                                 self.model))
+        settings = run_settings(self.options, n, self.sequence, self.volume, self.model, self.segmenter.learned)
+        checkpoint = Checkpoint(out, self.sequence, settings)
         result, start, state = self._resume(checkpoint, n) if resume else (None, 0, None)
         if result is None:
             clear(out)

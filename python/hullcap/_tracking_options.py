@@ -47,6 +47,11 @@ class TrackerOptions:
                              help="background subtraction when the sequence has no silhouettes/ (or they are ignored)")
     ignore_silhouettes: bool = option(False, rule=BOOL, flag=True,
                                       help="subtract the background even when the sequence has silhouettes/")
+    segmenter: str = option("auto", rule=one_of("auto", "learned", "colour"), flag=True, metavar="KIND",
+                            help="where the sequence has no silhouettes/: 'learned', the learned person segmenter "
+                                 "fused with the background test where there is a background image "
+                                 "(hullcap[segment], docs/segmentation.md); 'colour', the background test alone; "
+                                 "'auto', learned where it is installed")
     guided: bool = option(True, rule=BOOL, help="guide each frame's statistical test by the predicted model and "
                                                 "the subject's colours (hullcap._guided)")
     guidance: GuidedOptions = option(factory=GuidedOptions, help="the guided silhouettes' options")
