@@ -190,3 +190,21 @@ def test_compare_command_against_a_runs_own_trc_export_and_another_run(tmp_path,
     assert "a .trc or .c3d file, a results folder or a sequence with ground truth" in capsys.readouterr().err
     assert main(["compare", str(tmp_path / "a"), str(tmp_path)]) == 2
     assert "neither a run's results folder" in capsys.readouterr().err
+
+
+def test_pose2sims_trc_axes_are_read_into_our_world(tmp_path):
+    """Pose2Sim writes a z-up calibration's world as a y-up TRC whose (x, y, z) is our
+    (y, z, x): read with up="pose2sim", its points land where they are in our world."""
+    from hullcap.export import read_trc
+
+    ours = np.array([[[1.0, 2.0, 3.0], [-0.5, 0.25, 1.75]]])
+    path = tmp_path / "pose2sim.trc"
+    lines = ["PathFileType\t4\t(X/Y/Z)\tpose2sim.trc",
+             "DataRate\tCameraRate\tNumFrames\tNumMarkers\tUnits\tOrigDataRate\tOrigDataStartFrame\tOrigNumFrames",
+             "60\t60\t1\t2\tm\t60\t1\t1", "Frame#\tTime\tA\t\t\tB", "\t\tX1\tY1\tZ1\tX2\tY2\tZ2",
+             "1\t0.0\t" + "\t".join(f"{v}" for p in ours[0] for v in (p[1], p[2], p[0]))]
+    path.write_text("\n".join(lines) + "\n")
+    names, points, _ = read_trc(path, up="pose2sim")
+    assert names == ["A", "B"] and np.allclose(points, ours)
+    with pytest.raises(ValueError, match="TRC axes must be 'y' or 'z' or 'pose2sim', got 'x'"):
+        read_trc(path, up="x")

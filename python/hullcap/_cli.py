@@ -355,8 +355,9 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--align", action="store_true",
                    help="first move the reference by the rigid motion that lays its joints on ours best (a "
                         "marker system calibrated apart from the cameras)")
-    m.add_argument("--up", choices=["y", "z"], default="y",
-                   help="trc: the reference's up axis (default y, OpenSim's; z: our world)")
+    m.add_argument("--up", choices=["y", "z", "pose2sim"], default="y",
+                   help="trc: the reference's axes (default y, OpenSim's y up; z: our world; pose2sim: the y-up "
+                        "file Pose2Sim writes of a z-up calibration, whose (x, y, z) is our (y, z, x))")
     m.add_argument("--json", help="also write the figures here as JSON")
     m.add_argument("--plot", metavar="PNG", help="also draw the errors over time and per joint here")
     m.set_defaults(run=_compare)

@@ -12,12 +12,18 @@ Z_UP_TO_Y_UP = Y_UP_TO_Z_UP.T
 """(x, y, z) ours (z up) → (x, z, −y) in the y-up convention of BVH, glTF and OpenSim."""
 
 
-def change_of_axes(up: str, what: str) -> np.ndarray:
-    """The rotation from our world to a file's whose up axis is `up` ("y" or "z");
-    `what` names the format in the error."""
-    if up not in ("y", "z"):
-        raise OptionsError(f"{what} up axis must be 'y' or 'z', got {up!r}")
-    return Z_UP_TO_Y_UP if up == "y" else np.eye(3)
+POSE2SIM = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+"""(x, y, z) ours → (y, z, x): the y-up TRC that Pose2Sim writes of a z-up calibration's world."""
+AXES = {"y": Z_UP_TO_Y_UP, "z": np.eye(3), "pose2sim": POSE2SIM}
+"""The axes a file may have, by name: the rotation from our world to the file's."""
+
+
+def change_of_axes(up: str, what: str, allowed: tuple[str, ...] = ("y", "z")) -> np.ndarray:
+    """The rotation from our world to a file's whose axes are `up`, one of `allowed` names
+    of :data:`AXES`; `what` names the format in the error."""
+    if up not in allowed:
+        raise OptionsError(f"{what} axes must be {' or '.join(repr(a) for a in allowed)}, got {up!r}")
+    return AXES[up]
 
 
 def local_motion(path, model, root_translation, root_rotation, theta) -> tuple[np.ndarray, np.ndarray]:

@@ -56,10 +56,11 @@ def write_trc(path, joint_names, joints, fps: float, *, units: str = "mm", up: s
 
 def read_trc(path, *, up: str = "y") -> tuple[list[str], np.ndarray, np.ndarray]:
     """``(marker names, (F, M, 3) positions in metres in our world, (F,) times in
-    seconds)`` of a TRC file whose up axis is `up` ("y", OpenSim's, or "z", ours). The
-    units come from the file's header; a missing value (``NaN`` or an empty field) is NaN."""
+    seconds)`` of a TRC file whose up axis is `up` ("y", OpenSim's; "z", ours; "pose2sim",
+    Pose2Sim's y-up file of a z-up calibration, :data:`~hullcap.export._motion.POSE2SIM`).
+    The units come from the file's header; a missing value (``NaN`` or an empty field) is NaN."""
     path = Path(path)
-    C = change_of_axes(up, "TRC")
+    C = change_of_axes(up, "TRC", ("y", "z", "pose2sim"))
     try:
         lines = path.read_text().splitlines()
     except (OSError, UnicodeDecodeError) as e:
