@@ -13,6 +13,9 @@ segments by colour alone.
 
 from __future__ import annotations
 
+import os
+import sys
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import cv2
@@ -117,10 +120,11 @@ class PersonSegmenter:
         import hullcap_segment_models as models
         from ai_edge_litert.interpreter import Interpreter
 
-        self._detector = Interpreter(model_path=str(models.DETECTOR), num_threads=1)
-        self._landmarks = Interpreter(model_path=str(models.LANDMARKS), num_threads=1)
-        for model in (self._detector, self._landmarks):
-            model.allocate_tensors()
+        with _quiet_stderr():  # LiteRT says on stderr, once per model, which delegate it created
+            self._detector = Interpreter(model_path=str(models.DETECTOR), num_threads=1)
+            self._landmarks = Interpreter(model_path=str(models.LANDMARKS), num_threads=1)
+            for model in (self._detector, self._landmarks):
+                model.allocate_tensors()
         self._outputs = {d["name"]: d["index"] for d in self._landmarks.get_output_details()}
 
     def find(self, image: np.ndarray) -> PersonView | None:
@@ -171,6 +175,20 @@ class PersonSegmenter:
         points = boxes[k, 4:8].reshape(2, 2) / DETECTOR_SIZE + _ANCHORS[k]
         hip, top = (points * DETECTOR_SIZE - offset) / scale
         return float(scores[k]), hip, top
+
+
+@contextmanager
+def _quiet_stderr():
+    """Send what native code writes to the process's stderr to nowhere while it lasts."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def _crop_transform(hip: np.ndarray, top: np.ndarray) -> np.ndarray:
