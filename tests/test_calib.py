@@ -169,3 +169,34 @@ def test_rotations_rounded_by_calibration_files_are_accepted():
     assert np.abs(cam.R @ cam.R.T - np.eye(3)).max() < 1e-12 and np.abs(cam.R - R).max() < 1e-5
     with pytest.raises(CalibrationError, match="not a rotation"):
         Camera("c", 640, 480, [[500, 0, 319.5], [0, 500, 239.5], [0, 0, 1]], np.zeros(5), R * 1.01, t)
+
+
+def test_cameras_are_matched_to_their_images_by_name_and_a_resized_video_adopted():
+    from hullcap._cameras import ring
+    from hullcap._rig import match_to_images, normalised_name
+
+    assert normalised_name("cam_01") == normalised_name("Cam01") == normalised_name("cam1") == "cam1"
+    assert normalised_name("cam10") != normalised_name("cam1")
+    base = ring(3, width=1088, height_px=1920)
+    calibrated = Cameras([type(c)(f"cam_0{i + 1}", c.width, c.height, c.K, c.dist, c.R, c.t)
+                          for i, c in enumerate(base)])
+    sizes = {"cam01": (1080, 1920), "cam02": (1088, 1920), "side": (1088, 1920)}
+    with pytest.raises(CalibrationError, match=r"no images for camera cam_03 of the calibration; the images are of "
+                                               r"cam01, cam02, side: .* --rename cam_03=NAME"):
+        match_to_images(calibrated, sizes)
+    cameras, notes = match_to_images(calibrated, sizes, {"cam_03": "side"})
+    assert cameras.names == ["cam01", "cam02", "side"]
+    assert "camera 'cam_01' is named 'cam01', as its images are" in notes
+    assert any("its images are 1080×1920, calibrated 1088×1920: taken as the calibrated frame resized" in n
+               for n in notes)
+    # The resized camera sees a world point where the calibrated one does, scaled and centred.
+    point = np.array([[0.3, -0.2, 1.2]])
+    before, after = calibrated[0].project(point)[0][0], cameras[0].project(point)[0][0]
+    scale = 1080 / 1088
+    assert np.allclose(after, (before + 0.5) * scale - 0.5 + np.array([0.0, (1920 - 1920 * scale) / 2]), atol=1e-6)
+    assert cameras[1].width == 1088 and np.array_equal(cameras[1].K, calibrated[1].K)
+    with pytest.raises(CalibrationError, match=r"camera 'cam01': its images are 960×1920, calibrated 1088×1920: "
+                                               r"not the calibrated frame resized"):
+        match_to_images(calibrated, {**sizes, "cam01": (960, 1920)}, {"cam_03": "side"})
+    with pytest.raises(CalibrationError, match="--rename names cam_09, which the calibration does not have"):
+        match_to_images(calibrated, sizes, {"cam_09": "side"})

@@ -136,14 +136,20 @@ def _compare(args) -> int:
 
 def _calib_import(args) -> int:
     from hullcap._cameras import parse_size
-    from hullcap._rig import describe, image_sizes, import_calibration
+    from hullcap._rig import describe, image_sizes, import_calibration, match_to_images
 
-    size = None
+    size, sizes = None, None
+    if args.images:
+        size = sizes = image_sizes(args.images)
     if args.size:
         size = parse_size(args.size, "--size")
-    elif args.images:
-        size = image_sizes(args.images)
     cameras = import_calibration(args.kind, args.sources, image_size=size, up=args.up)
+    if sizes is not None:
+        cameras, notes = match_to_images(cameras, sizes, args.rename)
+        for note in notes:
+            print(note)
+    elif args.rename:
+        raise OptionsError("--rename matches the calibration's cameras to images: give --images too")
     cameras.save(args.out)
     print(describe(cameras))
     print(f"\n{args.out}: {len(cameras)} cameras written")
@@ -185,6 +191,14 @@ def _calib_check(args) -> int:
     draw_agreement(picture, images, masks, seq.cameras, agreements, args.voxel_size)
     print(f"every view, green where the others agree and red where they carve its silhouette away: {picture}")
     return 0
+
+
+def _renames(text: str) -> dict[str, str]:
+    """``--rename cam_01=left,cam_02=right`` → {'cam_01': 'left', 'cam_02': 'right'}."""
+    pairs = [p.split("=") for p in text.split(",")]
+    if not all(len(p) == 2 and p[0].strip() and p[1].strip() for p in pairs):
+        raise argparse.ArgumentTypeError(f"OLD=NEW pairs separated by commas, got {text!r}")
+    return {old.strip(): new.strip() for old, new in pairs}
 
 
 def _shift(text: str):
@@ -298,8 +312,12 @@ def build_parser() -> argparse.ArgumentParser:
     ci.add_argument("--out", required=True, help="the cameras.json to write")
     ci.add_argument("--size", metavar="WxH", help="image size of every camera, for files that do not store it")
     ci.add_argument("--images", metavar="FOLDER",
-                    help="take each camera's image size from one frame of FOLDER/frames/<cam>/ or "
-                         "FOLDER/videos/<cam>.*")
+                    help="the sequence folder whose FOLDER/frames/<cam>/ or FOLDER/videos/<cam>.* the cameras film: "
+                         "each camera is named as its images are (cam_01 and cam01 alike) and takes their size (a "
+                         "video a little smaller or larger than calibrated is taken as the calibrated frame resized, "
+                         "its intrinsics scaled, and said so)")
+    ci.add_argument("--rename", type=_renames, metavar="OLD=NEW,...",
+                    help="with --images: the images' name of each camera of the calibration that is named otherwise")
     ci.add_argument("--up", choices=["z", "y"], default="z", help="the up axis of the files' world (default z)")
     ci.set_defaults(run=_calib_import)
     cs = csub.add_parser("show", help="describe a cameras.json and draw the rig from above",

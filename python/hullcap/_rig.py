@@ -10,18 +10,19 @@ from the files, from the caller, or from one frame of each camera's images or vi
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from hullcap._cameras import Cameras
+from hullcap._cameras import Camera, Cameras, axes_meeting_point, capture_volume, format_bounds
 from hullcap._files import atomic_write
-from hullcap._cameras import axes_meeting_point, capture_volume, format_bounds
 from hullcap._sequence import VIDEO_SUFFIXES, first_frame
 from hullcap.errors import CalibrationError, SequenceError
 
-__all__ = ["describe", "draw_top_view", "import_calibration", "image_sizes", "surround", "FORMATS", "MIN_SURROUND"]
+__all__ = ["describe", "draw_top_view", "import_calibration", "image_sizes", "match_to_images", "normalised_name",
+           "surround", "FORMATS", "MIN_SURROUND"]
 
 FORMATS = ("easymocap", "pose2sim", "opencv")
 
@@ -29,7 +30,10 @@ FORMATS = ("easymocap", "pose2sim", "opencv")
 def import_calibration(kind: str, sources, image_size=None, up: str = "z") -> Cameras:
     """Cameras from another tool's files: ``easymocap`` (``intri.yml extri.yml``),
     ``pose2sim`` (one ``Calib*.toml``) or ``opencv`` (one FileStorage file per camera).
-    `image_size` and `up` as in :meth:`Cameras.from_easymocap`."""
+    `image_size` and `up` as in :meth:`Cameras.from_easymocap`; a dict of sizes is also
+    looked up by :func:`normalised_name`."""
+    if isinstance(image_size, dict):
+        image_size = _AnyName(image_size)
     sources = [Path(s) for s in sources]
     want = {"easymocap": 2, "pose2sim": 1}.get(kind)
     if kind not in FORMATS:
@@ -41,6 +45,89 @@ def import_calibration(kind: str, sources, image_size=None, up: str = "z") -> Ca
     if kind == "pose2sim":
         return Cameras.from_pose2sim(sources[0], up=up)
     return Cameras.from_opencv(sources, image_size=image_size, up=up)
+
+
+class _AnyName(dict):
+    """Image sizes by camera name, found under a name that means the same camera too."""
+
+    def get(self, name, default=None):
+        if name in self:
+            return self[name]
+        alike = [k for k in self if normalised_name(k) == normalised_name(name)]
+        return self[alike[0]] if len(alike) == 1 else default
+
+
+RESIZE_TOLERANCE = 0.02
+"""A video whose size differs from its camera's calibrated size by at most this fraction on
+each side is taken as the calibrated frame resized (uniformly, centred), and adopted."""
+
+
+def normalised_name(name: str) -> str:
+    """A camera name as names that mean the same camera compare: lower case, letters and
+    digits only, no leading zeros in a number (``cam_01``, ``Cam01`` and ``cam1`` alike)."""
+    parts = re.findall(r"[a-z]+|\d+", name.lower())
+    return "".join(str(int(p)) if p.isdigit() else p for p in parts)
+
+
+def match_to_images(cameras: Cameras, sizes: dict[str, tuple[int, int]],
+                    rename: dict[str, str] | None = None) -> tuple[Cameras, list[str]]:
+    """``(cameras, notes)``: `cameras` named as their videos or frame folders are (`sizes`:
+    :func:`image_sizes`), and each adopted to its images' size where they are the calibrated
+    frame resized; `notes` say what changed. `rename` (calibration name → image name) comes
+    first; then an exact name, then the same :func:`normalised_name`. A CalibrationError
+    lists both sides when a camera has no images, and names a size that is not a resize."""
+    rename = dict(rename or {})
+    unknown = sorted(set(rename) - set(cameras.names))
+    if unknown:
+        raise CalibrationError(f"--rename names {', '.join(unknown)}, which the calibration does not have "
+                               f"(its cameras: {', '.join(cameras.names)})")
+    by_norm: dict[str, list[str]] = {}
+    for name in sizes:
+        by_norm.setdefault(normalised_name(name), []).append(name)
+    notes, kept, missing = [], [], []
+    for cam in cameras:
+        name = rename.get(cam.name, cam.name)
+        if name not in sizes:
+            alike = by_norm.get(normalised_name(name), [])
+            if len(alike) != 1:
+                missing.append(cam.name)
+                continue
+            name = alike[0]
+        if name != cam.name:
+            notes.append(f"camera {cam.name!r} is named {name!r}, as its images are")
+        cam = Camera(name, cam.width, cam.height, cam.K, cam.dist, cam.R, cam.t)
+        adopted = _adopted(cam, sizes[name])
+        if adopted is not cam:
+            notes.append(f"camera {name!r}: its images are {adopted.width}×{adopted.height}, calibrated "
+                         f"{cam.width}×{cam.height}: taken as the calibrated frame resized (by "
+                         f"{min(adopted.width / cam.width, adopted.height / cam.height):.4f}, centred), "
+                         f"its intrinsics scaled to match")
+        kept.append(adopted)
+    if missing:
+        pairs = ",".join(f"{m}=NAME" for m in missing)
+        raise CalibrationError(f"no images for camera{'s' if len(missing) > 1 else ''} {', '.join(missing)} of the "
+                               f"calibration; the images are of {', '.join(sorted(sizes))}: name them alike, or "
+                               f"give --rename {pairs}")
+    return Cameras(kept), notes
+
+
+def _adopted(cam: Camera, size: tuple[int, int]) -> Camera:
+    """`cam` seeing images of `size` ``(width, height)``: itself when it is its size; the
+    calibrated frame scaled uniformly and centred in the new size when that is within
+    :data:`RESIZE_TOLERANCE` of it; else a CalibrationError."""
+    width, height = size
+    if (width, height) == (cam.width, cam.height):
+        return cam
+    scale = min(width / cam.width, height / cam.height)
+    off = (width - scale * cam.width, height - scale * cam.height)
+    if not (abs(1 - scale) <= RESIZE_TOLERANCE and max(off[0] / width, off[1] / height) <= RESIZE_TOLERANCE):
+        raise CalibrationError(f"camera {cam.name!r}: its images are {width}×{height}, calibrated {cam.width}×"
+                               f"{cam.height}: not the calibrated frame resized; calibrate at the videos' size")
+    K = cam.K.copy()
+    K[:2, :2] *= scale
+    K[:2, 2] = (K[:2, 2] + 0.5) * scale - 0.5 + np.array(off) / 2  # a pixel's centre maps as a point does
+
+    return Camera(cam.name, width, height, K, cam.dist, cam.R, cam.t)
 
 
 def image_sizes(folder) -> dict[str, tuple[int, int]]:
