@@ -34,8 +34,8 @@ CROP_SCALE = 1.25
 """The crop's side over the detector's body diameter: a margin for the limbs it reaches."""
 KEY_POINTS = 33
 """Key points of MediaPipe's pose topology (nose, eyes, ears, mouth, shoulders, elbows,
-wrists, hands, hips, knees, ankles, heels, toes); of the model's six further points, the
-first two (hip centre, body top) place the next frame's crop."""
+wrists, hands, hips, knees, ankles, heels, toes); the model's six further points place the
+crop and are not kept."""
 
 
 SIDES = {"shoulder": (11, 12), "hip": (23, 24)}
@@ -82,9 +82,6 @@ class PersonView:
     key_points: np.ndarray
     visibility: np.ndarray
     score: float
-    crop: np.ndarray | None = None
-    """(2, 2) the hip centre and body top (pixels) the landmark model places, from which the
-    next frame's crop is taken; None when it doubts the person is in its crop."""
 
     def mask(self) -> np.ndarray:
         """(H, W) uint8 silhouette, 255 where the person is more likely than not, cleaned as
@@ -130,42 +127,30 @@ class PersonSegmenter:
                 model.allocate_tensors()
         self._outputs = {d["name"]: d["index"] for d in self._landmarks.get_output_details()}
 
-    def find(self, image: np.ndarray, crop: np.ndarray | None = None) -> PersonView | None:
+    def find(self, image: np.ndarray) -> PersonView | None:
         """The person in `image` (H × W × 3 BGR, as OpenCV reads it), or None when the
-        detector finds nobody. `crop`: where the frame before placed the person
-        (:attr:`PersonView.crop`), to take the crop from without the detector, as MediaPipe
-        tracks a person; the detector runs when the landmark model doubts the person is in it."""
+        detector finds nobody."""
         rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2RGB)
-        if crop is not None:
-            view = self._landmarks_in(rgb, crop[0], crop[1], 1.0)
-            if view.crop is not None:
-                return view
         found = self._detect(rgb)
         if found is None:
             return None
-        return self._landmarks_in(rgb, found[1], found[2], found[0])
-
-    def _landmarks_in(self, rgb: np.ndarray, hip: np.ndarray, top: np.ndarray, score: float) -> PersonView:
-        """The landmark model's view of the person in the crop round `hip` and `top`."""
+        score, hip, top = found
         to_crop = _crop_transform(hip, top)
         crop = cv2.warpAffine(rgb, to_crop, (LANDMARK_SIZE, LANDMARK_SIZE), flags=cv2.INTER_LINEAR,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         model = self._landmarks
         model.set_tensor(model.get_input_details()[0]["index"], (crop.astype(np.float32) / 255.0)[None])
         model.invoke()
-        points = model.get_tensor(self._outputs["Identity"])[0].reshape(-1, 5)
-        present = float(model.get_tensor(self._outputs["Identity_1"]).ravel()[0]) >= MIN_SCORE
+        points = model.get_tensor(self._outputs["Identity"])[0].reshape(-1, 5)[:KEY_POINTS]
         logits = model.get_tensor(self._outputs["Identity_2"])[0, :, :, 0]
         h, w = rgb.shape[:2]
         probability = cv2.warpAffine(_sigmoid(logits).astype(np.float32), to_crop, (w, h),
                                      flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
                                      borderValue=0)
         back = cv2.invertAffineTransform(to_crop)
-        key_points = (points[:, :2] @ back[:, :2].T + back[:, 2]).astype(np.float32)
-        # The model's points after the 33 key points: the hip centre and body top of its crop.
-        crop = key_points[KEY_POINTS:KEY_POINTS + 2].copy() if present else None
-        return PersonView(probability, key_points[:KEY_POINTS], _sigmoid(points[:KEY_POINTS, 3]).astype(np.float32),
-                          score, crop)
+        key_points = points[:, :2] @ back[:, :2].T + back[:, 2]
+        return PersonView(probability, key_points.astype(np.float32), _sigmoid(points[:, 3]).astype(np.float32),
+                          score)
 
     def _detect(self, rgb: np.ndarray):
         """``(score, hip centre, body top)`` in pixels of the person the detector is surest

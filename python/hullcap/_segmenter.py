@@ -38,7 +38,6 @@ __all__ = ["Segmenter"]
 # The checkpoint's arrays of what the segmenter learnt (Segmenter.learnt).
 LEARNT_TEACH_AT = "learnt_teach_at"
 LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
-LEARNT_CROPS = "learnt_person_crops"
 
 
 @dataclass
@@ -69,11 +68,6 @@ class Segmenter:
         self.learned = self._learned_wanted()
         """Whether the learned person segmenter runs (``TrackerOptions.segmenter``)."""
         self._people: list | None = None  # each camera's PersonSegmenter, once needed
-        # Where the learned segmenter takes each camera's next crop from (PersonView.crop):
-        # as the frames are read (perhaps ahead), and as of the last frame segmented (the
-        # checkpoint's, so that a resumed run reads on as the interrupted one did).
-        self._crops: list = [None] * len(sequence.cameras)
-        self._crops_taken: list = [None] * len(sequence.cameras)
         # Cameras without a usable background image, left out of every frame: name → why.
         self.no_background: dict[str, ViewError] = {}
         self.broken: set = set()
@@ -128,8 +122,6 @@ class Segmenter:
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
         self.people = (frame, [view.person if isinstance(view, _Input) else None for view in inputs])
-        if self.learned:
-            self._crops_taken = [None if person is None else person.crop for person in self.people[1]]
         segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks, unsure = [], []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
@@ -167,12 +159,8 @@ class Segmenter:
         def view(i: int) -> _Input | ViewError:
             image = images[i]
             if isinstance(image, ViewError):
-                self._crops[i] = None  # as the frame's taking records it
                 return image
-            person = None
-            if self.learned:
-                person = self._people[i].find(image, self._crops[i])
-                self._crops[i] = None if person is None else person.crop
+            person = self._people[i].find(image) if self.learned else None
             background = self._backgrounds[i]
             if background is None:  # no background image: the learned segmenter alone
                 mask = np.zeros(image.shape[:2], np.uint8) if person is None else person.mask()
@@ -314,12 +302,8 @@ class Segmenter:
 
     def learnt(self) -> dict:
         """What the segmenters have learnt, for the checkpoint: the guided segmenters'
-        colours, the frames still to teach them from, and where the learned segmenter
-        takes each camera's next crop from."""
+        colours and the frames still to teach them from."""
         learnt = {LEARNT_TEACH_AT: np.asarray(self.teach_at, np.int64)}
-        if self.learned:
-            learnt[LEARNT_CROPS] = np.stack([np.full((2, 2), np.nan, np.float32) if c is None else c
-                                             for c in self._crops_taken])
         if self.guides:
             known = next(g for g in self._guided if g is not None)  # a camera without its background: none
             for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
@@ -334,12 +318,6 @@ class Segmenter:
         if teach_at.ndim != 1 or teach_at.dtype.kind not in "iu":
             raise ValueError(f"{LEARNT_TEACH_AT} is not a list of frames")
         self.teach_at = [int(f) for f in teach_at]
-        crops = arrays.pop(LEARNT_CROPS, None)
-        if crops is not None and self.learned:
-            if np.shape(crops) != (len(self._crops), 2, 2):
-                raise ValueError(f"{LEARNT_CROPS} of shape {np.shape(crops)}, not ({len(self._crops)}, 2, 2)")
-            self._crops = [None if np.isnan(c).any() else np.asarray(c, np.float32) for c in crops]
-            self._crops_taken = list(self._crops)
         colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
         if colours[0] is not None and self.guides:
             if any(len(c) != len(self._guided) for c in colours):
