@@ -231,14 +231,20 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     return SubjectFit(model, final.pose, (final.pose, *fitted_poses[1:]), basis, np.asarray(found), final)
 
 
+AWAY = -0.5
+"""A heading whose facing agreement is below this faces away from the person (more than
+about 120° off): a start side-on (about 0) is still tried, since it may turn to the front."""
+
+
 def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOptions | None = None,
                 facing=None) -> FitResult:
     """Fit `model` to a hull with no pose to start from: the rest pose stood on the hull's
     floor at its centre, turned to ``options.headings`` headings; each is fitted briefly,
     the ``options.keep`` that explain most of the hull both ways are fitted fully, and the
-    best of those is returned. `facing` (a function of a model and a pose, > 0 where the
-    pose faces the way the person does; :func:`hullcap._person.facing_agreement`) leaves
-    out the headings it scores below 0, since a hull shows front and back alike."""
+    best of those is returned. `facing` (a function of a model and a pose, from -1 facing
+    away from the way the person does to 1 facing it; :func:`hullcap._person.facing_agreement`)
+    leaves out the headings it scores below :data:`AWAY`, since a hull shows front and back
+    alike."""
     options = options or SubjectOptions()
     v = hull.vertices
     target = target if target is not None else make_target(hull)
@@ -248,7 +254,7 @@ def place_model(model: BodyModel, hull: Surface, target=None, options: SubjectOp
     yaws = np.arange(options.headings) * 2 * np.pi / options.headings
     starts = [PoseParameters.rest(model, root, yaw) for yaw in yaws]
     if facing is not None:
-        starts = [s for s in starts if facing(model, s) >= 0] or starts
+        starts = [s for s in starts if facing(model, s) >= AWAY] or starts
     tried = over_fits(lambda start, threads: fit(model, target, start, quick, threads=threads), starts)
     tried.sort(key=quality, reverse=True)
     refined = over_fits(lambda r, threads: fit(model, target, r.pose, options.fit, threads=threads),
