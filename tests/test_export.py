@@ -90,7 +90,7 @@ def test_bvh_rejects_an_unknown_convention(tmp_path):
     from hullcap.errors import OptionsError
 
     model = BodyModel.template()
-    with pytest.raises(OptionsError, match="up axis"):
+    with pytest.raises(OptionsError, match="BVH axes must be .y. or .z., got .x."):
         write_bvh(tmp_path / "m.bvh", model, np.zeros((1, 3)), np.eye(3)[None], np.zeros((1, 29)), 30, up="x")
     with pytest.raises(OptionsError, match="units"):
         write_bvh(tmp_path / "m.bvh", model, np.zeros((1, 3)), np.eye(3)[None], np.zeros((1, 29)), 30, units="mm")
