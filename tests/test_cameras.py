@@ -122,6 +122,6 @@ def test_a_scaled_camera_projects_where_the_resized_image_shows_the_point(rng, f
     weights = resized / resized.sum()
     centre = np.array([weights.sum(0) @ np.arange(small.width), weights.sum(1) @ np.arange(small.height)])
     assert np.abs(centre - (np.array([x, y]) * ratio - 0.5)).max() < 0.05
-    with pytest.raises(ValueError, match=r"image scale must be in \(0, 1\]"):
+    with pytest.raises(ValueError, match=r"camera 'c\d*': image scale must be a fraction in \(0, 1\], got 1.5"):
         cam.scaled(1.5)
     assert Cameras([cam]).scaled(1) is not None and Cameras([cam]).scaled(1)[0] is cam

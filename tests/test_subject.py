@@ -138,7 +138,7 @@ def test_with_hands_pulls_each_hand_toward_its_wrist():
     for bad in (0.0, 1.5):
         with pytest.raises(OptionsError, match="hand_reach must be a fraction in"):
             TrackerOptions(hand_reach=bad)
-        with pytest.raises(OptionsError, match="hand reach must be in"):
+        with pytest.raises(OptionsError, match="hand reach must be a fraction in"):
             with_hands(template, bad)
 
 

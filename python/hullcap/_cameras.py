@@ -20,6 +20,7 @@ import cv2
 import numpy as np
 
 from hullcap._files import atomic_write, read_document
+from hullcap._options import FRACTION
 from hullcap.errors import CalibrationError, HullError
 
 __all__ = ["Camera", "Cameras", "ring", "parse_size", "check_principal_point", "capture_volume", "axes_meeting_point",
@@ -179,8 +180,7 @@ class Camera:
         round(width · factor) × round(height · factor)): the focal lengths and skew scaled by
         each axis's own ratio of sizes, the principal point mapped as a pixel centre is,
         (c + ½) · ratio − ½. The distortion acts on normalised coordinates and stays."""
-        if not 0 < factor <= 1:
-            raise CalibrationError(f"camera {self.name!r}: an image scale must be in (0, 1], got {factor}")
+        FRACTION.check("image scale", factor, where=f"camera {self.name!r}", error=CalibrationError)
         width, height = max(1, round(self.width * factor)), max(1, round(self.height * factor))
         sx, sy = width / self.width, height / self.height
         K = self.K.copy()

@@ -28,6 +28,7 @@ from hullcap._body import BodyModel
 from hullcap._engine import FitOptions, NormalKDTree
 from hullcap._fitting import FitResult, PoseParameters, fit, make_target, quality
 from hullcap._mesh import Surface, smoothed_over_mesh
+from hullcap._options import FRACTION
 from hullcap._shape import ShapeBasis, ShapeParameter
 from hullcap._threads import over_fits
 from hullcap.errors import FitError, ModelError, OptionsError
@@ -401,8 +402,7 @@ def with_hands(model: BodyModel, reach: float) -> BodyModel:
     toward the wrist to `reach` (0 < reach ≤ 1) of its length; the same skin weights and
     joints. `model` itself for a reach of 1 or a model without forearms and wrists. What
     tracking fits (``TrackerOptions.hand_reach``)."""
-    if not 0 < reach <= 1:
-        raise OptionsError(f"hand reach must be in (0, 1], got {reach}")
+    FRACTION.check("hand reach", reach)
     links = model.link_model
     sides = [s for s in "lr" if f"{s}_forearm" in links.names and f"{s}_wrist" in links.joint_names]
     if reach == 1 or not sides:
