@@ -196,7 +196,7 @@ def main():
                     help="give each run the subject's model of the same run in RUNS (an earlier --out)")
     ap.add_argument("--cameras", type=int, metavar="K",
                     help="track with K of each sequence's cameras, spread evenly round its rig (default: all)")
-    add_flags(ap, TrackerOptions, ["segmenter"])
+    add_flags(ap, TrackerOptions, ["segmenter", "learned_every"])
     ap.add_argument("--jobs", type=int, default=1, metavar="N",
                     help="track N runs at a time (frames/s are then those of a shared machine)")
     args = ap.parse_args()
@@ -209,7 +209,7 @@ def main():
         ap.error(f"--jobs must be 1 or more, got {args.jobs}")
     if args.cameras is not None and args.cameras < MIN_CAMERAS:
         ap.error(f"--cameras must be {MIN_CAMERAS} or more, got {args.cameras}")
-    options = TrackerOptions(refine_joints=args.refine, segmenter=args.segmenter)
+    options = TrackerOptions(refine_joints=args.refine, segmenter=args.segmenter, learned_every=args.learned_every)
     models_from = None if args.models_from is None else Path(args.models_from)
     names = args.only or devset.names(devset_dir)
     for name in names:  # rendered here, once, before any run reads it

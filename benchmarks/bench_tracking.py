@@ -5,10 +5,11 @@ Speed (the default): for an 8-camera 640×480 development sequence (d01_bend, re
 into data/devset/ by bench_devset.py) and for the project's own synthetic sequence, in one
 run: the time of only decoding every frame of every camera (the floor), then a tracking
 run from colour frames by the background test alone and with the learned segmenter (where
-installed), with the frames read ahead on a second thread, and one reading each frame when
-it is tracked. Prints per stage milliseconds per frame, frames/s of the
-fit alone and of tracking (the whole run's wall time, outputs included, less the time
-spent on the subject's model), and tracking's time over the floor.
+installed; every frame, and every third frame of each view, ``learned_every=3``), with the
+frames read ahead on a second thread, and one reading each frame when it is tracked.
+Prints per stage milliseconds per frame, frames/s of the fit alone and of tracking (the
+whole run's wall time, outputs included, less the time spent on the subject's model), and
+tracking's time over the floor.
 
     .venv/bin/python benchmarks/bench_tracking.py [--frames N] [--devset PATH]
 
@@ -65,15 +66,18 @@ def speed(args) -> None:
         seq = Sequence(path)
         n = len(seq) if args.frames is None else min(args.frames, len(seq))
         floor = decode_seconds(seq, n) / n
-        runs = [("colour", 2), ("learned", 2), ("learned", 0)] if available() else [("colour", 2), ("colour", 0)]
-        for segmenter, read_ahead in runs:
-            options = TrackerOptions(ignore_silhouettes=True, read_ahead=read_ahead, segmenter=segmenter)
+        runs = ([("colour", 2, 1), ("learned", 2, 1), ("learned", 2, 3), ("learned", 0, 1)] if available()
+                else [("colour", 2, 1), ("colour", 0, 1)])
+        for segmenter, read_ahead, every in runs:
+            options = TrackerOptions(ignore_silhouettes=True, read_ahead=read_ahead, segmenter=segmenter,
+                                     learned_every=every)
             t0 = time.perf_counter()
-            result = Tracker(seq, options=options).run(Path(tmp.name) / f"out-{segmenter}{read_ahead}", resume=False,
-                                                         show_progress=False, frames=n)
+            result = Tracker(seq, options=options).run(Path(tmp.name) / f"out-{segmenter}{read_ahead}{every}",
+                                                         resume=False, show_progress=False, frames=n)
             sec = {k: v / n for k, v in result.seconds.items()}
             tracking = (time.perf_counter() - t0) / n - sec["subject"]
-            rows.append((label, segmenter, read_ahead, 1000 * floor, 1000 * sec.get("read ahead", 0.0),
+            name = segmenter if every == 1 else f"{segmenter}, every {every} frames"
+            rows.append((label, name, read_ahead, 1000 * floor, 1000 * sec.get("read ahead", 0.0),
                          1000 * sec["silhouettes"], 1000 * sec["hull"], 1000 * sec["fit"], 1 / sec["fit"],
                          1 / tracking, tracking / floor, int(result.failed[:n].sum()), n))
     tmp.cleanup()

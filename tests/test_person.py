@@ -131,6 +131,22 @@ def test_a_take_without_a_background_is_segmented_by_the_learned_segmenter_alone
     assert unsure == [None] * len(masks)
 
 
+@needs_the_extra
+def test_learned_every_k_frames_runs_on_a_share_of_the_views_and_on_all_while_building(rendered):
+    options = TrackerOptions(ignore_silhouettes=True, learned_every=2)
+    segmenter = Segmenter(Sequence(rendered), options, ProblemLog(warn=False), defaultdict(float))
+    segmenter.prepare()
+    for frame in (4, 5):
+        segmenter.segment(frame)
+        ran = [person is not None for person in segmenter.people[1]]
+        assert ran == [(frame + i) % 2 == 0 for i in range(4)], frame
+    with segmenter.every_frame():
+        segmenter.segment(5)
+    assert all(person is not None for person in segmenter.people[1])
+    segmenter.segment(5)
+    assert sum(person is not None for person in segmenter.people[1]) == 2
+
+
 def test_without_a_background_or_the_learned_segmenter_the_error_says_what_to_do(rendered, tmp_path):
     seq = _without_background(rendered, tmp_path)
     segmenter = Segmenter(seq, TrackerOptions(segmenter="colour"), ProblemLog(warn=False), defaultdict(float))

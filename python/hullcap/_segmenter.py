@@ -68,6 +68,7 @@ class Segmenter:
         self.learned = self._learned_wanted()
         """Whether the learned person segmenter runs (``TrackerOptions.segmenter``)."""
         self._people: list | None = None  # each camera's PersonSegmenter, once needed
+        self._every_frame = False  # while True, the learned segmenter runs on every frame
         # Cameras without a usable background image, left out of every frame: name → why.
         self.no_background: dict[str, ViewError] = {}
         self.broken: set = set()
@@ -160,7 +161,7 @@ class Segmenter:
             image = images[i]
             if isinstance(image, ViewError):
                 return image
-            person = self._people[i].find(image) if self.learned else None
+            person = self._people[i].find(image) if self.learned and self.learned_runs(frame, i) else None
             background = self._backgrounds[i]
             if background is None:  # no background image: the learned segmenter alone
                 mask = np.zeros(image.shape[:2], np.uint8) if person is None else person.mask()
@@ -170,6 +171,22 @@ class Segmenter:
             return _Input(image=image, evidence=segmenters[i].background.evidence(image), person=person)
 
         return over_views(view, range(len(images)))
+
+    @contextmanager
+    def every_frame(self):
+        """While it lasts, the learned segmenter runs on every frame it is given, whatever
+        ``learned_every`` says (the subject's model is built and refined so)."""
+        self._every_frame = True
+        try:
+            yield
+        finally:
+            self._every_frame = False
+
+    def learned_runs(self, frame: int, i: int) -> bool:
+        """Whether the learned segmenter runs on view `i` at `frame`: on every frame while
+        the subject's model is built, else every ``learned_every`` frames, staggered over
+        the views so that each frame has its share of them."""
+        return self._every_frame or (frame + i) % self.options.learned_every == 0
 
     def _images(self, frame: int) -> list[np.ndarray | None]:
         """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""

@@ -2,8 +2,8 @@
 do their work without the GIL.
 
 - Ahead: while the engine fits frame t, frame t + 1 is decoded and put through the
-  per-pixel background test on a second thread (:class:`ReadAhead`). Only what does not
-  depend on the fit of frame t may run ahead.
+  per-pixel background test and the learned segmenter on a second thread
+  (:class:`ReadAhead`). Only what does not depend on the fit of frame t may run ahead.
 - Side by side: a frame's views, each independent of the others (the prediction drawn
   into it, its guided mask, the hull's dilated prior and distance images), are processed
   on a few threads (:func:`over_views`).
@@ -29,14 +29,17 @@ from hullcap import _engine
 __all__ = ["ReadAhead", "over_fits", "over_views"]
 
 _pools: dict[tuple[str, int], ThreadPoolExecutor] = {}
+_AHEAD_THREAD = "hullcap-read-ahead"
 
 
 def over_views(work: Callable, items: Iterable) -> list:
     """``[work(item) for item in items]``, the items shared among as many threads as the
     engine runs on (``_engine.threads()``: ``$HULLCAP_THREADS`` when it is a positive
-    number, else every core), as :func:`_shared` shares them."""
+    number, else every core), as :func:`_shared` shares them. The read-ahead thread's views
+    have a pool of their own: sharing the tracking thread's, each waited for the other's."""
     items = list(items)
-    return _shared("views", work, items, min(_engine.threads(), len(items)))
+    kind = "ahead" if threading.current_thread().name == _AHEAD_THREAD else "views"
+    return _shared(kind, work, items, min(_engine.threads(), len(items)))
 
 
 def over_fits(work: Callable, items: Iterable) -> list:
@@ -111,7 +114,7 @@ class ReadAhead:
         self.seconds = 0.0
         self._results: queue.Queue = queue.Queue(maxsize=depth)
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, args=(work, list(items)), name="hullcap-read-ahead",
+        self._thread = threading.Thread(target=self._run, args=(work, list(items)), name=_AHEAD_THREAD,
                                         daemon=True)
         self._thread.start()
 

@@ -153,7 +153,8 @@ class Tracker:
         """``(empty result, first frame, tracking state)`` of a new run: the subject's model
         built (or the given one placed) and saved in ``out/model``."""
         t0, before = time.perf_counter(), dict(self.seconds)
-        model, start, anchor = self.subject.build(n, self.model, show_progress)
+        with self.segmenter.every_frame():
+            model, start, anchor = self.subject.build(n, self.model, show_progress)
         window = list(range(start, self.subject.window_end(start, n)))
         self.segmenter.teach_at = self.segmenter.teaching_frames(window)
         # The subject's frames (the calibration pass too) count as 'subject' only, so that
