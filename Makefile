@@ -46,6 +46,7 @@ bench: $(ENGINE)
 	$(PY) benchmarks/bench_devset.py --silhouettes colour exact   # the benchmark of record, ~8 min
 	$(PY) benchmarks/bench_knee.py   # the subject model's knee search on the development set, ~10 min
 	$(PY) benchmarks/bench_girdle.py   # raised arms in bench_devset's runs: the shoulders' height, refits, ~15 s
+	$(PY) benchmarks/bench_real.py   # Pose2Sim's real take from its videos and calibration, ~2 min
 	$(VENV)/bin/pip install --quiet open3d   # needs Debian's libusb-1.0-0
 	$(PY) benchmarks/bench_icp.py
 

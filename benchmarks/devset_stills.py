@@ -31,11 +31,12 @@ def worst_frame(run: Path) -> tuple[int, float]:
     return int(worst["frame"]), float(worst["error_mm"])
 
 
-def tile(image, camera, joints, truth) -> np.ndarray:
-    """`image` cropped to a square around the joints, with the true joints drawn, TILE px."""
+def tile(image, camera, joints, truth, radius: int = 4) -> np.ndarray:
+    """`image` cropped to a square around the joints, with the true joints drawn as dots of
+    `radius` pixels of the image, TILE px."""
     px, _ = camera.project(np.vstack([joints, truth]))
     for p in camera.project(truth)[0]:
-        cv2.circle(image, tuple(int(round(c)) for c in p), 4, (0, 200, 0), -1, cv2.LINE_AA)
+        cv2.circle(image, tuple(int(round(c)) for c in p), radius, (0, 200, 0), -1, cv2.LINE_AA)
     lo, hi = px.min(0), px.max(0)
     centre, half = (lo + hi) / 2, 0.65 * max(hi - lo) + 30
     x0, y0 = (centre - half).astype(int)
