@@ -117,7 +117,7 @@ def test_a_camera_without_its_background_is_left_out_of_every_frame(clean, tmp_p
         (left_out,) = [p for p in problems if p["camera"] == "cam3"]
         assert left_out["frame"] is None and left_out["file"].endswith("background/cam3.png")
         said = "left out of every frame" if kind == "colour" else "segmented by the learned person segmenter alone"
-        assert f"{said}: no usable background image (missing" in left_out["what"]
+        assert f"{said}: no usable background image: missing, and there is no clip" in left_out["what"]
     shutil.rmtree(seq / "background")
     with pytest.raises(SequenceError, match=r"no camera has a usable background image .* background/<camera>.png"):
         Tracker(Sequence(seq), options=replace(FAST, segmenter="colour")).run(tmp_path / "out2", show_progress=False)

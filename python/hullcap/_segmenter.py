@@ -228,7 +228,7 @@ class Segmenter:
             self._segmenters()
             alone = "segmented by the learned person segmenter alone" if self.learned else "left out of every frame"
             for name, e in self.no_background.items():
-                self.problems.add(None, f"{alone}: no usable background image ({e.what})", name, e.file)
+                self.problems.add(None, f"{alone}: no usable background image: {e.what}", name, e.file)
         return max(1, min(n, max(counts.values())))
 
     def _segmenters(self):

@@ -208,8 +208,8 @@ class Sequence:
                  if p.exists()]
         path = _at_most_one(found + _videos_named(folder, cam.name), folder, cam.name, "backgrounds")
         if path is None:
-            raise ViewError(folder / f"{cam.name}.png", f"missing (camera {cam.name!r}; nor is there a clip, "
-                                                        f"background/{cam.name}/ or background/{cam.name}.mp4)")
+            raise ViewError(folder / f"{cam.name}.png", f"missing, and there is no clip of the empty scene "
+                                                        f"either (background/{cam.name}/ or background/{cam.name}.mp4)")
         if path.suffix.lower() in (".png", ".jpg"):
             images = [self._read(path, cam, colour=True)]
         elif path.is_dir():
