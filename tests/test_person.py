@@ -194,3 +194,18 @@ def test_a_take_tracked_from_colour_alone_says_so_once(rendered, tmp_path, monke
     track_take(rendered, tmp_path / "out", options, show_progress=False, warn=warnings.append)
     said = [w for w in warnings if w.startswith("silhouettes from colour alone")]
     assert len(said) == 1 and "the LiteRT runtime is not installed" in said[0] and "docs/segmentation.md" in said[0]
+
+
+def test_a_fit_facing_away_from_the_persons_key_points_does_not_stand(rendered, tmp_path, monkeypatch):
+    """Where the key points say the person faces the other way (as they would of a model
+    placed backwards), no fit of the frame stands, and problems.json says why."""
+    from hullcap import Tracker
+
+    def facing(self, frame):
+        return (lambda model, pose: -1.0) if frame >= 6 else None
+    monkeypatch.setattr(Segmenter, "facing", facing)
+    options = TrackerOptions(ignore_silhouettes=True, segmenter="colour", refine_joints=False)
+    tracker = Tracker(rendered, options=options)
+    result = tracker.run(tmp_path / "out", show_progress=False, frames=8)
+    assert not result.failed[:6].any() and result.failed[6:8].all()
+    assert {p.frame for p in tracker.problems.items if "faces away" in p.what} == {6, 7}

@@ -70,6 +70,7 @@ class FrameFitter:
             self.problems.add(frame, str(e))
             result.fail(frame)
             return
+        state.facing = self.segmenter.facing(frame)
         t0 = time.perf_counter()
         target = make_target(surface)
         best, iterations = None, 0
@@ -134,6 +135,9 @@ class FrameFitter:
         if best is None:  # nothing to start from and no search
             result.fail(frame)
             return
+        if status == FAILED and state.faces_away(best):
+            self.problems.add(frame, "the fit faces away from the way the learned segmenter's key points say the "
+                                     "person faces (left and right swapped)")
         result.record(frame, best, status, iterations, bar)
         if status != FAILED:
             state.remember_fit(best)

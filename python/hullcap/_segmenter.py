@@ -24,7 +24,7 @@ import numpy as np
 from hullcap._body import BodyModel
 from hullcap._fitting import PoseParameters
 from hullcap._guided import GuidedSegmenter
-from hullcap._person import PersonSegmenter, PersonView, missing
+from hullcap._person import PersonSegmenter, PersonView, facing_agreement, missing
 from hullcap._problems import ProblemLog
 from hullcap._render import model_silhouettes
 from hullcap._sequence import Sequence
@@ -181,6 +181,20 @@ class Segmenter:
             yield
         finally:
             self._every_frame = False
+
+    def facing(self, frame: int):
+        """The way the person of `frame` (the frame last segmented) faces, as the learned
+        segmenter's key points say: a function of a model and a pose, from -1 (facing away)
+        to 1 (:func:`hullcap._person.facing_agreement`); None without key points."""
+        seen, views = self.people
+        if seen != frame or not any(v is not None for v in views):
+            return None
+        cameras = self.sequence.cameras
+
+        def facing(model: BodyModel, pose: PoseParameters) -> float:
+            joints = model.joints(pose.theta, pose.root_rotation, pose.root_translation)
+            return facing_agreement(views, cameras, dict(zip(model.joint_names, joints)))
+        return facing
 
     def learned_runs(self, frame: int, i: int) -> bool:
         """Whether the learned segmenter runs on view `i` at `frame`: on every frame while

@@ -12,7 +12,6 @@ from hullcap._body import BodyModel
 from hullcap._carver import Carver
 from hullcap._fitting import FitResult, PoseParameters, fit, make_target
 from hullcap._frame_fitter import FrameFitter
-from hullcap._person import facing_agreement
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
 from hullcap._render import model_silhouettes
@@ -51,20 +50,6 @@ class SubjectBuilder:
             ious.append(np.logical_and(mask > 0, sil).sum() / union if union else 0.0)
         return float(np.mean(ious))
 
-    def _facing(self, frame: int):
-        """The way the person of `frame` faces, as the learned segmenter's key points say
-        (:func:`hullcap._person.facing_agreement` of a model and a pose), or None without
-        them."""
-        seen, views = self.segmenter.people
-        if seen != frame or not any(v is not None for v in views):
-            return None
-        cameras = self.sequence.cameras
-
-        def facing(model: BodyModel, pose: PoseParameters) -> float:
-            joints = model.joints(pose.theta, pose.root_rotation, pose.root_translation)
-            return facing_agreement(views, cameras, dict(zip(model.joint_names, joints)))
-        return facing
-
     def build(self, n: int, given: BodyModel | None = None,
               show_progress: bool = True) -> tuple[BodyModel, int, FitResult]:
         """``(model, first frame, its fit)``: the subject's model built (and refined) at the
@@ -76,7 +61,7 @@ class SubjectBuilder:
             except ValueError as e:
                 self.problems.add(frame, str(e))
                 continue
-            facing = self._facing(frame)
+            facing = self.segmenter.facing(frame)
             if given is not None:
                 placed = place_model(given, hull, options=options.subject, facing=facing)
                 if self.agreement(masks, given, placed.pose) >= options.min_subject_agreement:

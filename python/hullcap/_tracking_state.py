@@ -15,6 +15,7 @@ from hullcap._body import BodyModel
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, quality
 from hullcap._reacquire import CHAINS, PoseSearch, chain_links, chain_quality
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult
+from hullcap._subject import AWAY
 from hullcap._tracking_options import TrackerOptions
 
 __all__ = ["TrackingState"]
@@ -51,6 +52,9 @@ class TrackingState:
         # A tracked fit no search could beat, as (quality, chain qualities): the bar of
         # the frames after it (TrackerOptions.recheck_margin).
         self.confirmed: tuple[float, np.ndarray] | None = None
+        self.facing = None
+        """The way the person of the frame being fitted faces (``Segmenter.facing``), or
+        None: a fit facing away from it does not stand."""
         # Elbows that turned fast, as {DOF: (the angle they turned from, frames left)}: the
         # frames after it keep the forearm as it was in view (TrackerOptions.elbow_doubt).
         self.doubted: dict[int, tuple[float, int]] = {}
@@ -222,9 +226,10 @@ class TrackingState:
         if self.good(found):
             self.confirmed = None
             return found, RECOVERED
-        if quality(found) < self.options.min_quality:
+        if quality(found) < self.options.min_quality or self.faces_away(found):
             return found, FAILED
-        if tracked is not None and quality(tracked) + self.options.confirm_margin >= quality(found):
+        if (tracked is not None and not self.faces_away(tracked)
+                and quality(tracked) + self.options.confirm_margin >= quality(found)):
             # The search explains this hull no better than the tracked fit: the hull got
             # worse (fewer views see the person, a limb hides another), not the fit.
             self.confirmed = (quality(tracked), chain_quality(tracked.link_counts, self.chains))
@@ -244,9 +249,18 @@ class TrackingState:
         tolerance = self.search.options.girdle_tolerance
         return quality(fitted) > quality(tracked) - tolerance and self.search.same_arm_lines(tracked.pose, fitted.pose)
 
+    def faces_away(self, fitted: FitResult) -> bool:
+        """Whether the fit faces away from the way the person's key points say (a facing
+        agreement below :data:`hullcap._subject.AWAY`): left and right swapped, which a
+        hull alone cannot tell."""
+        return self.facing is not None and self.facing(self.model, fitted.pose) < AWAY
+
     def good(self, fitted: FitResult) -> bool:
-        """Whether a fit stands without a search: it passes the reference, or it is as
-        good as the last fit a search confirmed (``recheck_margin``)."""
+        """Whether a fit stands without a search: it does not face away from the person,
+        and it passes the reference or is as good as the last fit a search confirmed
+        (``recheck_margin``)."""
+        if self.faces_away(fitted):
+            return False
         if self.passes_reference(fitted):
             return True
         if self.confirmed is None or self.options.recheck_margin is None:
