@@ -305,6 +305,26 @@ def test_a_person_who_leaves_every_view_is_absent_then_found_again(clean, tmp_pa
     assert accuracy(result, seq).mean_mm < 20  # the frames after the absence tracked as well as before
 
 
+def test_a_take_whose_first_frames_show_nobody_starts_where_the_person_is_and_says_so(clean, tmp_path, capsys):
+    """Nobody in frames 0 and 1: the subject's model is built from frame 2, the run says
+    which frame and where to read why not the ones before, pose.npz keeps it, and
+    report.png draws it."""
+    from hullcap.export import load_result
+
+    seq = copy(clean, tmp_path)
+    for frame in (0, 1):
+        for cam in range(6):
+            empty_room(seq, f"cam{cam}", frame)
+    out = tmp_path / "out"
+    assert track(seq, out) == 0
+    said = capsys.readouterr().out
+    assert ("the subject's model built from frame 2, the first whose visual hull it explains; frames 0–1 could not "
+            "start it (why: problems.json)") in said
+    problems = json.loads((out / "problems.json").read_text())["problems"]
+    assert {p["frame"] for p in problems} == {0, 1}
+    assert load_result(out).subject_frame == 2 and (out / "report.png").is_file()
+
+
 def test_a_resume_with_other_settings_is_refused_naming_them(clean, tmp_path, monkeypatch, capsys):
     """Interrupted, then run again with another voxel size or without wrists: refused,
     with the setting named both ways, instead of a take tracked half one way and half the

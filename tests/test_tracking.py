@@ -20,6 +20,7 @@ from hullcap._sequence import Sequence
 from hullcap._subject import with_hands
 from hullcap._synth import synthesize
 from hullcap._tracking_options import quick_fit_options
+from hullcap.export import load_result
 
 
 def turn(yaw):
@@ -311,6 +312,8 @@ def test_an_interrupted_run_resumes_where_it_stopped(short_sequence, tmp_path, m
     assert not resumed.failed.any() and not (out / ".checkpoint.npz").exists()
     straight = Tracker(seq, options=options).run(tmp_path / "straight", show_progress=False, frames=16)
     assert np.allclose(resumed.joints, straight.joints, atol=1e-9)
+    assert resumed.subject_frame == straight.subject_frame == 0  # kept by the checkpoint, then by pose.npz
+    assert load_result(out).subject_frame == 0
 
 
 def test_the_state_a_checkpoint_carries_comes_back_whole(model):

@@ -55,6 +55,9 @@ class TrackingResult:
             ``min_quality``); NaN where no fit was judged.
         seconds: seconds spent per stage of tracking the sequence (silhouettes, hull, fit), and
             on the subject's model (its frames and calibration pass included: "subject").
+        subject_frame: the frame the subject's model was built from (or a given model
+            placed at): the first whose hull it explains; tracking starts there. -1 where
+            unknown (a ``pose.npz`` from before it was kept).
     """
 
     model: BodyModel
@@ -73,6 +76,7 @@ class TrackingResult:
     link_counts: np.ndarray
     bar: np.ndarray
     seconds: dict = field(default_factory=dict)
+    subject_frame: int = -1
 
     @property
     def failed(self) -> np.ndarray:
@@ -141,7 +145,8 @@ class TrackingResult:
                      *(array(k, (), "fiu", np.full(n, np.nan)).astype(float) for k in STATS),
                      array("iterations", (), "iu").astype(np.int64),
                      array("link_counts", (links, 4), "iu", np.zeros((n, links, 4), np.int64)).astype(np.int64),
-                     array("bar", (), "fiu", np.full(n, np.nan)).astype(float))
+                     array("bar", (), "fiu", np.full(n, np.nan)).astype(float),
+                     subject_frame=int(_checked_array(a, "subject_frame", (), "iu")) if "subject_frame" in a else -1)
         if "joints" in a:
             result.joints = array("joints", (len(model.joint_names), 3), "fiu").astype(float)
         else:
@@ -182,7 +187,7 @@ class TrackingResult:
                "theta": self.theta, "dof_names": np.array(self.model.dof_names),
                "joint_names": np.array(self.model.joint_names), "failed": self.failed,
                "status": self.status, "iterations": self.iterations, "link_counts": self.link_counts,
-               "bar": self.bar, "joints": self.joints, "fps": self.fps}
+               "bar": self.bar, "joints": self.joints, "fps": self.fps, "subject_frame": self.subject_frame}
         return out | {k: getattr(self, k) for k in STATS}
 
     def interpolated(self) -> TrackingResult:

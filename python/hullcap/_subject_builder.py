@@ -64,9 +64,12 @@ class SubjectBuilder:
             facing = self.segmenter.facing(frame)
             if given is not None:
                 placed = place_model(given, hull, options=options.subject, facing=facing)
-                if self.agreement(masks, given, placed.pose) >= options.min_subject_agreement:
+                agreement = self.agreement(masks, given, placed.pose)
+                if agreement >= options.min_subject_agreement:
                     self.segmenter.learn_colours(frame, given, placed.pose, fresh=True)
                     return given, frame, placed
+                self.problems.add(frame, f"the given model placed there agrees too little with the silhouettes "
+                                         f"(mean IoU {agreement:.2f}) to start from")
                 continue
             try:
                 subject = build_subject(hull, options=options.subject, facing=facing)

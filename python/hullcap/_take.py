@@ -118,6 +118,13 @@ class TakeSummary:
         return self.frames / self.seconds if self.seconds > 0 else 0.0
 
 
+def _subject_line(frame: int, given: bool) -> str:
+    """What a run says of the frame its subject's model came from."""
+    how = "the given model placed at" if given else "the subject's model built from"
+    before = f"; frames 0–{frame - 1} could not start it (why: problems.json)" if frame > 0 else ""
+    return f"{how} frame {frame}, the first whose visual hull it explains{before}"
+
+
 def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, resume: bool = True,
                show_progress: bool = True, say: Callable[[str], None] | None = None,
                warn: Callable[[str], None] | None = None) -> TakeSummary:
@@ -166,6 +173,8 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     say(f"{out}: {summary.frames - summary.lost} of {summary.frames} frames tracked ({summary.lost} lost, "
         f"{summary.recovered} re-acquired); "
         f"{', '.join(tracker.written)}")
+    if result.subject_frame >= 0:
+        say(_subject_line(result.subject_frame, given=model is not None))
     if summary.problems:
         say(f"problems: {summary.problems} (all in {Path(out) / 'problems.json'})")
     held = result.limits_held()

@@ -165,7 +165,9 @@ class Tracker:
         tracked = model.with_wrists() if self.options.wrists else model
         tracked.save(out / "model")
         state = self.fitter.state(tracked, start, anchor, built=model)
-        return TrackingResult.empty(tracked, n, self.sequence.fps), start, state
+        result = TrackingResult.empty(tracked, n, self.sequence.fps)
+        result.subject_frame = start
+        return result, start, state
 
     def _resume(self, checkpoint: Checkpoint, n: int):
         """``(result, next frame, state)`` from `checkpoint`, or ``(None, 0, None)`` when

@@ -116,7 +116,8 @@ def write_report(path, result, truth_joints=None) -> None:
     against the bar the frame had to reach to stand without a search; the mean distance of
     its pairs both ways; the frames where a joint angle was held at one of the model's
     limits (:meth:`~hullcap._results.TrackingResult.at_limits`, the most held first);
-    and, with `truth_joints` (F × J × 3), the joint error per body region."""
+    the frame the subject's model was built from (a dotted line); and, with
+    `truth_joints` (F × J × 3), the joint error per body region."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -154,10 +155,14 @@ def write_report(path, result, truth_joints=None) -> None:
         ax[3].legend(fontsize=8, ncol=3)
     counts = {status: int((result.status == status).sum()) for status in (FAILED, RECOVERED)}
     fig.suptitle("How well each frame's fit explains its visual hull")
+    subject = (f"; the subject's model from frame {result.subject_frame} (dotted)"
+               if result.subject_frame >= 0 else "")
     ax[0].set_title(f"{len(t)} frames: {counts[FAILED]} failed (shaded red), {counts[RECOVERED]} recovered by a "
-                    "search (orange)", fontsize=9)
+                    f"search (orange){subject}", fontsize=9)
     for a in ax:
         a.grid(alpha=0.3)
+        if result.subject_frame >= 0:
+            a.axvline(t[result.subject_frame], color="black", ls=":", lw=1.0)
         for status, colour in ((FAILED, "red"), (RECOVERED, "orange")):
             for f in np.flatnonzero(result.status == status):
                 a.axvspan(t[f] - 0.5 / result.fps, t[f] + 0.5 / result.fps, color=colour, alpha=0.25, lw=0)
