@@ -264,6 +264,13 @@ def empty_room(seq, cam, frame):
     shutil.copy(seq / "background" / f"{cam}.png", frame_file(seq, cam, frame))
 
 
+def nobody_in(seq, frames):
+    """The empty room in every camera for `frames`."""
+    for frame in frames:
+        for cam in range(6):
+            empty_room(seq, f"cam{cam}", frame)
+
+
 def track(seq, out, *more):
     """`hullcap track` as a user runs it, quickly: its exit code."""
     return main(["track", str(seq), "--out", str(out), "--no-refine-joints", "--no-overlays", *more])
@@ -288,9 +295,7 @@ def test_a_person_who_leaves_every_view_is_absent_then_found_again(clean, tmp_pa
     from hullcap._evaluate import accuracy
 
     seq = copy(clean, tmp_path)
-    for frame in (3, 4):
-        for cam in range(6):
-            empty_room(seq, f"cam{cam}", frame)
+    nobody_in(seq, (3, 4))
     out = tmp_path / "out"
     assert track(seq, out) == 0
     said = capsys.readouterr().out
@@ -312,9 +317,7 @@ def test_a_take_whose_first_frames_show_nobody_starts_where_the_person_is_and_sa
     from hullcap.export import load_result
 
     seq = copy(clean, tmp_path)
-    for frame in (0, 1):
-        for cam in range(6):
-            empty_room(seq, f"cam{cam}", frame)
+    nobody_in(seq, (0, 1))
     out = tmp_path / "out"
     assert track(seq, out) == 0
     said = capsys.readouterr().out
