@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 from hullcap import BodyModel
+from hullcap.errors import ResultsError
 from hullcap.export import write_bvh
 
 bvh = pytest.importorskip("bvh", reason="the independent BVH reader (pip install bvh)")
@@ -154,11 +155,18 @@ def test_export_command_rewrites_the_outputs_from_pose_npz(tmp_path, capsys):
 
     result = load_result(tmp_path / "out")
     assert np.isfinite(result.bar).all() and (result.bar > 0).all() and (result.bar <= result.quality).all()
-    # The pose.npz of a run from before the bar was kept loads without one; its report draws.
+    assert result.subject_frame == 0
+    # A subject frame outside the run is named; the pose.npz of a run from before the bar
+    # and the subject frame were kept loads without them, and its report draws.
     with np.load(tmp_path / "out" / "pose.npz") as z:
-        np.savez(tmp_path / "out" / "pose.npz", **{k: z[k] for k in z.files if k != "bar"})
+        arrays = {k: z[k] for k in z.files}
+    np.savez(tmp_path / "out" / "pose.npz", **(arrays | {"subject_frame": 7}))
+    with pytest.raises(ResultsError, match=r"subject_frame must be a frame of the run \(0–2\) or -1, got 7"):
+        load_result(tmp_path / "out")
+    np.savez(tmp_path / "out" / "pose.npz", **{k: v for k, v in arrays.items() if k not in ("bar", "subject_frame")})
     older = load_result(tmp_path / "out")
     assert np.isnan(older.bar).all() and np.array_equal(older.theta, result.theta, equal_nan=True)
+    assert older.subject_frame == -1
     write_report(tmp_path / "older.png", older)
     assert cv2.imread(str(tmp_path / "older.png")) is not None
 

@@ -147,6 +147,9 @@ class TrackingResult:
                      array("link_counts", (links, 4), "iu", np.zeros((n, links, 4), np.int64)).astype(np.int64),
                      array("bar", (), "fiu", np.full(n, np.nan)).astype(float),
                      subject_frame=int(_checked_array(a, "subject_frame", (), "iu")) if "subject_frame" in a else -1)
+        if not -1 <= result.subject_frame < n:
+            raise ResultsError(f"subject_frame must be a frame of the run (0–{n - 1}) or -1, "
+                               f"got {result.subject_frame}")
         if "joints" in a:
             result.joints = array("joints", (len(model.joint_names), 3), "fiu").astype(float)
         else:
