@@ -21,7 +21,6 @@ The take's folder (``videos/``, ``calibration/Calib_qualisys.toml``, ``reference
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -68,11 +67,11 @@ def hullcap(*args: str, check: bool = True) -> subprocess.CompletedProcess:
     return done
 
 
-def stills(take: Path, sequence: Path, run: Path, out: Path) -> None:
+def stills(trc: Path, sequence: Path, run: Path, out: Path) -> None:
     """Frames `STILLS` in every camera: the fitted model over the image and Pose2Sim's
-    joints as green dots, a row per frame."""
+    joints (its TRC file `trc`) as green dots, a row per frame."""
     seq, result = Sequence(sequence), load_result(run)
-    ref_names, ref, times = reference_joints(next((take / "reference").glob("*_0-100.trc")), up="pose2sim")
+    ref_names, ref, times = reference_joints(trc, up="pose2sim")
     model = result.model
     rows = []
     for frame in STILLS:
@@ -122,10 +121,8 @@ def main():
     t0 = time.perf_counter()
     hullcap("track", str(sequence), "--out", str(run), "--image-scale", "0.5", "--restart")
     seconds = time.perf_counter() - t0
-    names = Path(args.out) / "pose2sim_names.json"
-    names.write_text(json.dumps(NAMES))
     trc = next((take / "reference").glob("*_0-100.trc"))
-    comparison = compare_run(run, trc, names=names, up="pose2sim")
+    comparison = compare_run(run, trc, names=NAMES, up="pose2sim")
     print(comparison.table())
     result = load_result(run)
     tracked = int((~result.failed).sum())
@@ -137,7 +134,7 @@ def main():
     met = tracked == len(result.failed) and raw <= TARGET_MM[0] and removed <= TARGET_MM[1]
     print(f"bar: all frames, ≤ {TARGET_MM[0]:.0f} mm raw, ≤ {TARGET_MM[1]:.0f} mm offset removed: "
           f"{'met' if met else 'not met'}")
-    stills(take, sequence, run, Path(args.stills))
+    stills(trc, sequence, run, Path(args.stills))
 
 
 if __name__ == "__main__":
