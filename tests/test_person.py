@@ -9,8 +9,8 @@ import pytest
 from hullcap import Sequence, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._guided import GuidedOptions, GuidedSegmenter, learned_logit
-from hullcap._person import (_ANCHORS, CROP_SCALE, LANDMARK_SIZE, PersonSegmenter, PersonView, _crop_transform,
-                             available, facing_agreement, missing)
+from hullcap._person import (_ANCHORS, CROP_SCALE, LANDMARK_SIZE, TRACK_GAP, PersonSegmenter, PersonView,
+                             _crop_transform, available, facing_agreement, missing)
 from hullcap._problems import ProblemLog
 from hullcap._segmenter import Segmenter
 from hullcap._silhouette import StatisticalBackground
@@ -106,6 +106,26 @@ def test_the_learned_masks_match_the_exact_silhouettes_of_a_rendered_person(rend
         assert inside[[11, 12, 23, 24]].all(), cam.name  # shoulders and hips on the person
     blank = np.full((240, 320, 3), 100, np.uint8)
     assert person.find(blank) is None
+
+
+@needs_the_extra
+def test_a_followed_person_needs_the_detector_once_and_is_found_as_well(rendered):
+    """Frame after frame of one camera, the landmark model's own points place the next crop:
+    the detector runs on the first frame, after a gap longer than TRACK_GAP, and when the
+    followed crop holds nobody; the masks are as good as the detector's."""
+    seq = Sequence(rendered)
+    cam = seq.cameras[0]
+    followed, detected = PersonSegmenter(), PersonSegmenter()
+    for frame in range(0, 12, 2):
+        image, exact = seq.image(frame, cam.name), seq.mask(frame, cam.name) > 0
+        for found in (followed.find(image, frame), detected.find(image)):
+            mask = found.mask() > 0
+            assert (mask & exact).sum() / (mask | exact).sum() > 0.9, frame
+    assert followed.detections == 1 and detected.detections == 6
+    followed.find(seq.image(11, cam.name), 11 + TRACK_GAP)  # too long after: detected again
+    assert followed.detections == 2
+    assert followed.find(np.full_like(image, 100), 12 + TRACK_GAP) is None  # nobody: the detector says so
+    assert followed.detections == 3
 
 
 def _without_background(rendered, tmp_path):

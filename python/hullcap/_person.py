@@ -34,8 +34,13 @@ CROP_SCALE = 1.25
 """The crop's side over the detector's body diameter: a margin for the limbs it reaches."""
 KEY_POINTS = 33
 """Key points of MediaPipe's pose topology (nose, eyes, ears, mouth, shoulders, elbows,
-wrists, hands, hips, knees, ankles, heels, toes); the model's six further points place the
-crop and are not kept."""
+wrists, hands, hips, knees, ankles, heels, toes); of the model's six further points, the
+first two (hip centre, body top) place the next frame's crop and the rest are not kept."""
+CROP_POINTS = (33, 34)
+"""The landmark model's hip centre and body top, the detector's two points again."""
+TRACK_GAP = 3
+"""The most frames from one image of a camera to the next over which the crop the landmark
+model placed is kept instead of running the detector again."""
 
 
 SIDES = {"shoulder": (11, 12), "hip": (23, 24)}
@@ -75,7 +80,8 @@ class PersonView:
         probability: (H, W) float32, each pixel's probability of being the person.
         key_points: (33, 2) pixel positions of MediaPipe's pose key points.
         visibility: (33,) the model's probability that each key point is in view.
-        score: the detector's score of the person (a probability).
+        score: the detector's score of the person (a probability), or the landmark
+            model's where the crop was followed from the frame before.
     """
 
     probability: np.ndarray
@@ -111,7 +117,12 @@ def _sigmoid(x):
 
 class PersonSegmenter:
     """The learned segmenter of one camera's images (one at a time: its interpreters are
-    not shared between threads). OptionsError when it cannot run here (:func:`missing`)."""
+    not shared between threads). OptionsError when it cannot run here (:func:`missing`).
+
+    Given frame numbers, it follows the person as MediaPipe's video mode does: the
+    landmark model's own hip centre and body top place the crop of the camera's next image
+    (up to :data:`TRACK_GAP` frames on), and the detector runs only on a first image, after
+    a gap, or when the landmark model no longer sees a person in the crop it was given."""
 
     def __init__(self):
         why = missing()
@@ -126,22 +137,46 @@ class PersonSegmenter:
             for model in (self._detector, self._landmarks):
                 model.allocate_tensors()
         self._outputs = {d["name"]: d["index"] for d in self._landmarks.get_output_details()}
+        self.followed: tuple[int, np.ndarray, np.ndarray] | None = None
+        """``(frame, hip centre, body top)`` that place the crop of the camera's next frame
+        (None: the detector places it); a resumed run restores it."""
+        self.detections = 0
+        """How many times the detector ran."""
 
-    def find(self, image: np.ndarray) -> PersonView | None:
+    def find(self, image: np.ndarray, frame: int | None = None) -> PersonView | None:
         """The person in `image` (H × W × 3 BGR, as OpenCV reads it), or None when the
-        detector finds nobody."""
+        detector finds nobody; `image` is the camera's frame `frame` (None: an image on its
+        own, not followed from the one before)."""
         rgb = cv2.cvtColor(image, cv2.COLOR_BGR2RGB) if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2RGB)
+        followed, self.followed = self.followed, None
+        if followed is not None and frame is not None and 0 < frame - followed[0] <= TRACK_GAP:
+            person = self._landmarks_in(rgb, followed[1], followed[2], None, frame)
+            if person is not None:
+                return person
         found = self._detect(rgb)
         if found is None:
             return None
         score, hip, top = found
+        return self._landmarks_in(rgb, hip, top, score, frame)
+
+    def _landmarks_in(self, rgb: np.ndarray, hip: np.ndarray, top: np.ndarray, score: float | None,
+                      frame: int | None) -> PersonView | None:
+        """The person in the crop of `rgb` round `hip` and `top` (:func:`_crop_transform`),
+        found by the detector with `score`, or (None) followed from the frame before, when
+        None is returned if the landmark model sees no person in the crop. Remembers where
+        the next frame's crop goes."""
         to_crop = _crop_transform(hip, top)
         crop = cv2.warpAffine(rgb, to_crop, (LANDMARK_SIZE, LANDMARK_SIZE), flags=cv2.INTER_LINEAR,
                               borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         model = self._landmarks
         model.set_tensor(model.get_input_details()[0]["index"], (crop.astype(np.float32) / 255.0)[None])
         model.invoke()
-        points = model.get_tensor(self._outputs["Identity"])[0].reshape(-1, 5)[:KEY_POINTS]
+        presence = float(model.get_tensor(self._outputs["Identity_1"])[0, 0])
+        if score is None:
+            if presence < MIN_SCORE:
+                return None
+            score = presence
+        points = model.get_tensor(self._outputs["Identity"])[0].reshape(-1, 5)
         logits = model.get_tensor(self._outputs["Identity_2"])[0, :, :, 0]
         h, w = rgb.shape[:2]
         probability = cv2.warpAffine(_sigmoid(logits).astype(np.float32), to_crop, (w, h),
@@ -149,8 +184,10 @@ class PersonSegmenter:
                                      borderValue=0)
         back = cv2.invertAffineTransform(to_crop)
         key_points = points[:, :2] @ back[:, :2].T + back[:, 2]
-        return PersonView(probability, key_points.astype(np.float32), _sigmoid(points[:, 3]).astype(np.float32),
-                          score)
+        if frame is not None:
+            self.followed = (frame, key_points[CROP_POINTS[0]], key_points[CROP_POINTS[1]])
+        return PersonView(probability, key_points[:KEY_POINTS].astype(np.float32),
+                          _sigmoid(points[:KEY_POINTS, 3]).astype(np.float32), score)
 
     def _detect(self, rgb: np.ndarray):
         """``(score, hip centre, body top)`` in pixels of the person the detector is surest
@@ -161,6 +198,7 @@ class PersonSegmenter:
         to_input = np.array([[scale, 0, offset[0]], [0, scale, offset[1]]], np.float32)
         square = cv2.warpAffine(rgb, to_input, (DETECTOR_SIZE, DETECTOR_SIZE), flags=cv2.INTER_LINEAR,
                                 borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+        self.detections += 1
         model = self._detector
         model.set_tensor(model.get_input_details()[0]["index"], (square.astype(np.float32) / 127.5 - 1.0)[None])
         model.invoke()

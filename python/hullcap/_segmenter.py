@@ -38,6 +38,8 @@ __all__ = ["Segmenter"]
 # The checkpoint's arrays of what the segmenter learnt (Segmenter.learnt).
 LEARNT_TEACH_AT = "learnt_teach_at"
 LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
+LEARNT_CROPS = "learnt_crops"
+"""Per camera: the frame, hip centre and body top the learned segmenter follows (frame -1: none)."""
 
 
 @dataclass
@@ -82,6 +84,10 @@ class Segmenter:
         # teaching reads instead of decoding them again: a video camera's reader is the
         # read-ahead thread's meanwhile.
         self._segmented: tuple[int, list] = (-1, [])
+        # Each frame's crops the learned segmenters follow once it is read (written on the
+        # read-ahead thread), and those of the last frame segmented, which the checkpoint keeps.
+        self._crops_after: dict[int, list] = {}
+        self._crops: list = []
         self.people: tuple[int, list[PersonView | None]] = (-1, [])
         """The last frame segmented and what the learned segmenter saw of the person in
         each of its views (None where it did not run or found nobody)."""
@@ -123,6 +129,7 @@ class Segmenter:
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
         self.people = (frame, [view.person if isinstance(view, _Input) else None for view in inputs])
+        self._crops = self._crops_after.pop(frame, self._crops)
         segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks, unsure = [], []
         for i, (cam, view) in enumerate(zip(self.sequence.cameras, inputs)):
@@ -161,7 +168,7 @@ class Segmenter:
             image = images[i]
             if isinstance(image, ViewError):
                 return image
-            person = self._people[i].find(image) if self.learned and self.learned_runs(frame, i) else None
+            person = self._people[i].find(image, frame) if self.learned and self.learned_runs(frame, i) else None
             background = self._backgrounds[i]
             if background is None:  # no background image: the learned segmenter alone
                 mask = np.zeros(image.shape[:2], np.uint8) if person is None else person.mask()
@@ -170,7 +177,10 @@ class Segmenter:
                 return _Input(mask=background.mask(image), person=person)
             return _Input(image=image, evidence=segmenters[i].background.evidence(image), person=person)
 
-        return over_views(view, range(len(images)))
+        inputs = over_views(view, range(len(images)))
+        if self.learned:
+            self._crops_after[frame] = [p.followed for p in self._people]
+        return inputs
 
     @contextmanager
     def every_frame(self):
@@ -333,8 +343,11 @@ class Segmenter:
 
     def learnt(self) -> dict:
         """What the segmenters have learnt, for the checkpoint: the guided segmenters'
-        colours and the frames still to teach them from."""
+        colours and the frames still to teach them from; the crops the learned segmenters
+        follow after the last frame segmented."""
         learnt = {LEARNT_TEACH_AT: np.asarray(self.teach_at, np.int64)}
+        if self._crops:
+            learnt[LEARNT_CROPS] = np.array([[-1.0] * 5 if c is None else [c[0], *c[1], *c[2]] for c in self._crops])
         if self.guides:
             known = next(g for g in self._guided if g is not None)  # a camera without its background: none
             for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
@@ -349,6 +362,15 @@ class Segmenter:
         if teach_at.ndim != 1 or teach_at.dtype.kind not in "iu":
             raise ValueError(f"{LEARNT_TEACH_AT} is not a list of frames")
         self.teach_at = [int(f) for f in teach_at]
+        crops = arrays.pop(LEARNT_CROPS, None)
+        if crops is not None and self.learned:
+            self._segmenters()
+            if np.shape(crops) != (len(self._people), 5):
+                raise ValueError(f"{LEARNT_CROPS} has shape {np.shape(crops)}, not ({len(self._people)}, 5)")
+            for person, c in zip(self._people, np.asarray(crops, float)):
+                # float32, as the landmark model gave them: the crop is computed from them as it was
+                hip, top = c[1:3].astype(np.float32), c[3:5].astype(np.float32)
+                person.followed = None if c[0] < 0 else (int(c[0]), hip, top)
         colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
         if colours[0] is not None and self.guides:
             if any(len(c) != len(self._guided) for c in colours):
