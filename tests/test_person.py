@@ -167,6 +167,23 @@ def test_learned_every_k_frames_runs_on_a_share_of_the_views_and_on_all_while_bu
     assert sum(person is not None for person in segmenter.people[1]) == 2
 
 
+@needs_the_extra
+def test_the_detector_places_every_crop_while_building_and_the_person_is_followed_after(rendered):
+    segmenter = Segmenter(Sequence(rendered), TrackerOptions(ignore_silhouettes=True), ProblemLog(warn=False),
+                          defaultdict(float))
+    segmenter.prepare()
+    with segmenter.every_frame():
+        for frame in (0, 1, 2):
+            segmenter.segment(frame)
+    people = segmenter._people
+    assert [p.detections for p in people] == [3] * 4 and all(p.followed is None for p in people)
+    for frame in (3, 4, 5):
+        segmenter.segment(frame)
+    assert [p.detections for p in people] == [4] * 4 and all(p.followed[0] == 5 for p in people)
+    crops = segmenter.learnt()["learnt_crops"]
+    assert crops.shape == (4, 5) and (crops[:, 0] == 5).all()
+
+
 def test_without_a_background_or_the_learned_segmenter_the_error_says_what_to_do(rendered, tmp_path):
     seq = _without_background(rendered, tmp_path)
     segmenter = Segmenter(seq, TrackerOptions(segmenter="colour"), ProblemLog(warn=False), defaultdict(float))

@@ -168,7 +168,10 @@ class Segmenter:
             image = images[i]
             if isinstance(image, ViewError):
                 return image
-            person = self._people[i].find(image, frame) if self.learned and self.learned_runs(frame, i) else None
+            # While the subject's model is built, the detector places every crop (the first
+            # frames decide the model); after, the person is followed from frame to frame.
+            followed = None if self._every_frame else frame
+            person = self._people[i].find(image, followed) if self.learned and self.learned_runs(frame, i) else None
             background = self._backgrounds[i]
             if background is None:  # no background image: the learned segmenter alone
                 mask = np.zeros(image.shape[:2], np.uint8) if person is None else person.mask()
@@ -185,7 +188,8 @@ class Segmenter:
     @contextmanager
     def every_frame(self):
         """While it lasts, the learned segmenter runs on every frame it is given, whatever
-        ``learned_every`` says (the subject's model is built and refined so)."""
+        ``learned_every`` says, its detector placing each crop (the subject's model is built
+        and refined so)."""
         self._every_frame = True
         try:
             yield
