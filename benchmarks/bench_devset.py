@@ -103,7 +103,7 @@ def run(devset_dir: Path, name: str, mode: str, out: Path, frames: int | None, o
     joint_err = np.linalg.norm(result.joints[:, [result.model.joint_names.index(j) for j in truth.names]]
                                - truth.positions[:n], axis=2)
     err = joint_err.mean(1)
-    honesty = devset.honesty(joint_err, result.failed)
+    honesty = devset.honesty(joint_err, result.status)
     frames_csv = ["frame,status,inlier_fraction,coverage,quality,error_mm"] + [
         f"{f},{STATUS_NAMES[result.status[f]]},{result.inlier_fraction[f]:.4f},{result.coverage[f]:.4f},"
         f"{result.quality[f]:.4f},{1000 * err[f]:.1f}" for f in range(n)]
@@ -168,14 +168,15 @@ def table(rows: list[dict]) -> str:
     limbs = list(devset.LIMBS)
     head = ("| sequence | cams | silhouettes | " + " | ".join(f"{limb} (%)" for limb in limbs)
             + " | static (mm) | MPJPE raw (mm) | offset removed (mm) | in the body's frame (mm) | lost | re-acquired"
-            + " | false good | 3DPCK@150 (%) | mask IoU | frames/s | fit frames/s |")
+            + " | false good | good ≤ 40 (%) | 3DPCK@150 (%) | mask IoU | frames/s | fit frames/s |")
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in rows:
         lines.append(f"| {r['sequence']} | {r['cameras']} | {r['silhouettes']} | "
                      + " | ".join(f"{r['limb_error_pct'][limb]:+.1f}" for limb in limbs)
                      + f" | {r['static_mm']:.1f} | {r['mpjpe_mm']:.1f} | {r['mpjpe_offset_removed_mm']:.1f} | "
                        f"{r['mpjpe_body_offset_removed_mm']:.1f} | "
-                       f"{r['lost']} of {r['frames']} | {r['reacquired']} | {r['false_good']} | {r['pck150']:.1f} | "
+                       f"{r['lost']} of {r['frames']} | {r['reacquired']} | {r['false_good']} | {r['good_40']:.1f} | "
+                       f"{r['pck150']:.1f} | "
                        f"{r['mask_iou']:.3f} | {r['fps']:.1f} | {r['fit_fps']:.1f} |")
     return "\n".join(lines)
 

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._compare import in_body_frame, offset_removed_mm
+from hullcap._results import FAILED, GOOD, RECOVERED
 from hullcap._sequence import MIN_CAMERAS
 
 REPO = Path(__file__).resolve().parent.parent
@@ -193,17 +194,26 @@ FALSE_GOOD_JOINT_MM = 150.0
 over the first or any joint's over the second (a limb, not a convention, is wrong)."""
 PCK_MM = 150.0
 """3DPCK's threshold: a joint within this distance of the truth counts as found."""
+EASY_MM = 40.0
+"""Frames whose mean joint error is under this should be marked good."""
 
 
-def honesty(joint_err: np.ndarray, failed: np.ndarray) -> dict:
-    """``{"false_good": frames, "pck150": percent}`` of a run: its frames kept (good or
-    recovered) whose error, `joint_err` (F, J) metres, makes them false-good
-    (:data:`FALSE_GOOD_MEAN_MM`), and the share of joint positions within :data:`PCK_MM`,
-    a failed frame's joints all counted as misses."""
-    kept = ~np.asarray(failed, bool)
-    mm = 1000 * np.asarray(joint_err, float)[kept]
-    wrong = (mm.mean(1) > FALSE_GOOD_MEAN_MM) | (mm.max(1) > FALSE_GOOD_JOINT_MM)
-    return {"false_good": int(wrong.sum()), "pck150": float(100 * (mm <= PCK_MM).sum() / max(1, joint_err.size))}
+def honesty(joint_err: np.ndarray, status: np.ndarray) -> dict:
+    """``{"false_good": frames, "pck150": percent, "good_40": percent}`` of a run: its
+    frames claimed (status good or recovered, :data:`hullcap._results.STATUS_NAMES`) whose
+    error, `joint_err` (F, J) metres, makes them false-good (:data:`FALSE_GOOD_MEAN_MM`);
+    the share of joint positions within :data:`PCK_MM`, a failed frame's joints all
+    counted as misses; and the share of the frames under :data:`EASY_MM` mean error that
+    are marked good (NaN without such frames): honesty not bought by doubting everything."""
+    status = np.asarray(status)
+    claimed = np.isin(status, (GOOD, RECOVERED))
+    mm = 1000 * np.asarray(joint_err, float)
+    with np.errstate(invalid="ignore"):
+        wrong = claimed & ((mm.mean(1) > FALSE_GOOD_MEAN_MM) | (mm.max(1) > FALSE_GOOD_JOINT_MM))
+        easy = mm.mean(1) < EASY_MM
+        found = np.nan_to_num(mm, nan=np.inf)[status != FAILED] <= PCK_MM
+    return {"false_good": int(wrong.sum()), "pck150": float(100 * found.sum() / max(1, joint_err.size)),
+            "good_40": float(100 * (status[easy] == GOOD).mean()) if easy.any() else float("nan")}
 
 
 def model_limb_lengths(model) -> dict[str, float]:

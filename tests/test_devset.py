@@ -12,6 +12,7 @@ import pytest
 
 import bench_devset
 import devset
+from hullcap._results import FAILED, GOOD, RECOVERED, UNCERTAIN
 from hullcap._tracking import TrackerOptions
 
 WHERE = devset.find()
@@ -90,15 +91,19 @@ def test_a_smaller_rig_takes_cameras_spread_evenly_round_the_ring():
         devset.spread_cameras(cams, 1)
 
 
-def test_false_good_frames_and_3dpck_count_what_the_tracker_kept():
+def test_false_good_frames_and_3dpck_count_what_the_tracker_claimed():
     """A frame kept with every joint 2 cm off is honest; one kept with a wrist 20 cm off
-    (its mean only 3 cm) is false-good; one kept 9 cm off everywhere is too; a failed frame
-    is no false-good but its joints are all misses."""
-    err = np.full((4, 10), 0.02)
+    (its mean only 3 cm) is false-good; one kept 9 cm off everywhere is too, and so is a
+    recovered one; an uncertain one is not claimed; a failed frame is no false-good but its
+    joints are all misses. Of the frames under 40 mm, those marked good count."""
+    err = np.full((7, 10), 0.02)
     err[1, 3] = 0.20
     err[2] = 0.09
     err[3] = np.nan
-    failed = np.array([False, False, False, True])
-    found = devset.honesty(err, failed)
-    assert found["false_good"] == 2
-    assert found["pck150"] == pytest.approx(100 * (10 + 9 + 10) / 40)
+    err[4] = err[5] = 0.09
+    status = np.array([GOOD, GOOD, GOOD, FAILED, RECOVERED, UNCERTAIN, UNCERTAIN])
+    found = devset.honesty(err, status)
+    assert found["false_good"] == 3
+    assert found["pck150"] == pytest.approx(100 * (10 + 9 + 10 + 0 + 10 + 10 + 10) / 70)
+    assert found["good_40"] == pytest.approx(200 / 3)  # frames 0, 1 (good; 38 mm) and 6 (uncertain)
+    assert np.isnan(devset.honesty(err[2:3], status[2:3])["good_40"])

@@ -247,7 +247,7 @@ def test_glb_read_by_an_independent_reader_skins_to_our_vertices(tmp_path, wrist
 
 def test_c3d_round_trip(tmp_path):
     pytest.importorskip("ezc3d", reason="C3D support (pip install ezc3d)")
-    from hullcap.export._c3d import read_c3d, write_c3d
+    from hullcap.export._c3d import MAX_RESIDUAL_MM, read_c3d, write_c3d
 
     model = BodyModel.template()
     rng = np.random.default_rng(3)
@@ -262,6 +262,17 @@ def test_c3d_round_trip(tmp_path):
     assert np.isnan(back[4]).all()
     with pytest.raises(ValueError, match="joints must have shape"):
         write_c3d(tmp_path / "x.c3d", model.joint_names, joints[:, :3], fps=50)
+    # Residuals: each joint's key-point distance in whole millimetres, capped at one
+    # byte's worth, 0 where not measured, -1 where the point is missing.
+    offsets = np.full(joints.shape[:2], 0.0123)
+    offsets[1, 2], offsets[2, 5], offsets[3, 0] = np.nan, 0.9, 0.0
+    write_c3d(tmp_path / "r.c3d", model.joint_names, joints, fps=50, residuals=offsets)
+    *_, residuals = read_c3d(tmp_path / "r.c3d", residuals=True)
+    assert residuals.shape == offsets.shape and residuals[0, 0] == 12.0
+    assert residuals[1, 2] == 0.0 and residuals[2, 5] == MAX_RESIDUAL_MM and residuals[3, 0] == 0.0
+    assert (residuals[4] == -1).all()
+    with pytest.raises(ValueError, match="residuals must have shape"):
+        write_c3d(tmp_path / "x.c3d", model.joint_names, joints, fps=50, residuals=offsets[:3])
 
 
 @pytest.mark.parametrize("up, units", [("y", "mm"), ("z", "m")])

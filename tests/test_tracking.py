@@ -163,7 +163,7 @@ def test_tracker_follows_a_rendered_sequence(short_sequence, tmp_path):
     assert acc.mean_mm < 25, acc.table()
     # The outputs of docs/formats.md.
     header = (tmp_path / "out" / "joints.csv").read_text().splitlines()
-    assert header[0] == "frame,time,joint,x,y,z,status" and len(header) == 1 + 20 * 21
+    assert header[0] == "frame,time,joint,x,y,z,status,confidence" and len(header) == 1 + 20 * 21
     pose = np.load(tmp_path / "out" / "pose.npz")
     # The subject's model is built with the paper's 29 DOF; tracking adds the wrists.
     assert pose["theta"].shape == (20, 33) and not pose["failed"].any()

@@ -85,6 +85,8 @@ def _export(args) -> int:
     from hullcap.export import angle_table, write_angles_csv, write_bvh, write_c3d, write_glb, write_mot, write_trc
 
     result = load_result(args.out)
+    if args.drop_uncertain and args.format not in ("trc", "c3d", "csv"):
+        raise OptionsError(f"--drop-uncertain applies to trc, c3d and csv, not {args.format}")
     if args.interpolate:
         result = result.interpolated()
     if args.smooth:
@@ -99,11 +101,12 @@ def _export(args) -> int:
     if args.format == "bvh":
         write_bvh(target, *motion, **convention)
     elif args.format == "trc":
-        write_trc(target, result.model.joint_names, result.joints, result.fps, **convention)
+        write_trc(target, result.model.joint_names, result.joints_kept(args.drop_uncertain), result.fps, **convention)
     elif args.format == "glb":
         write_glb(target, *motion)
     elif args.format == "c3d":
-        write_c3d(target, result.model.joint_names, result.joints, result.fps)
+        write_c3d(target, result.model.joint_names, result.joints_kept(args.drop_uncertain), result.fps,
+                  residuals=result.key_point_offset)
     elif args.format in ("mot", "angles"):
         columns, values = angle_table(result.model.dof_names, result.theta, result.root_translation,
                                       result.root_rotation, result.fps)
@@ -111,7 +114,7 @@ def _export(args) -> int:
             values[:, 1:] = smooth_joints(values[:, 1:, None], result.fps, args.smooth)[..., 0]
         (write_mot if args.format == "mot" else write_angles_csv)(target, columns, values)
     else:
-        write_joints_csv(target, result)
+        write_joints_csv(target, result, drop_uncertain=args.drop_uncertain)
     print(f"{target}: written from {Path(args.out) / 'pose.npz'}")
     return 0
 
@@ -351,6 +354,8 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--units", choices=["m", "cm", "mm"],
                    help="bvh: m (default) or cm; trc: mm (default) or m")
     e.add_argument("--to", help="the file to write (default: the standard name inside OUT)")
+    e.add_argument("--drop-uncertain", action="store_true",
+                   help="trc, c3d, csv: write the joints marked uncertain as missing (gaps), as failed frames are")
     add_flags(e, TakeOptions, ["interpolate", "smooth"])
     e.set_defaults(run=_export)
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from hullcap._body import BodyModel
 from hullcap._carver import Carver
+from hullcap._confidence import key_point_offsets
 from hullcap._fitting import FitOptions, FitResult, PoseParameters, PosePrior, fit, make_target, quality
 from hullcap._problems import ProblemLog
 from hullcap._results import FAILED, GOOD, RECOVERED, TrackingResult
@@ -141,6 +142,10 @@ class FrameFitter:
         result.record(frame, best, status, iterations, bar)
         if status != FAILED:
             state.remember_fit(best)
+            seen, views = self.segmenter.people
+            if seen == frame:
+                result.key_point_offset[frame] = key_point_offsets(views, self.segmenter.sequence.cameras,
+                                                                   result.model.joint_names, result.joints[frame])
         self.seconds["fit"] += time.perf_counter() - t0
         if passed:
             self.segmenter.teach(frame, state.guide, best.pose)

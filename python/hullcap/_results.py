@@ -3,10 +3,13 @@ and read from are :mod:`hullcap.export`'s).
 
 Every frame has a status: ``good`` (the fit explains the hull as well as the recent
 frames did), ``recovered`` (it did after a search from the hull itself), or ``failed``.
-Failed frames hold NaN and are left out of ``joints.csv`` unless the outputs are asked to
-interpolate them, in which case they are filled from their neighbours and marked
-``interpolated``. Joint trajectories can be low-pass filtered without lag for analysis;
-the raw results are always kept.
+Once the run is over, each joint of each fitted frame gets a confidence from evidence the
+prediction did not make (:mod:`hullcap._confidence`); a joint below the bar is
+``uncertain``, and so is its frame (:meth:`TrackingResult.judge`). Failed frames hold
+NaN and are left out of ``joints.csv`` unless the outputs are asked to interpolate them,
+in which case they are filled from their neighbours and marked ``interpolated``. Joint
+trajectories can be low-pass filtered without lag for analysis; the raw results are
+always kept.
 """
 
 from __future__ import annotations
@@ -16,14 +19,15 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hullcap._body import BodyModel
+from hullcap._confidence import UNSURE_BELOW, confidence
 from hullcap._fitting import FitResult, PoseParameters
 from hullcap.errors import OptionsError, ResultsError
 
-__all__ = ["GOOD", "RECOVERED", "FAILED", "INTERPOLATED", "STATUS_NAMES", "TrackingResult", "smooth_joints",
-           "check_cutoff"]
+__all__ = ["GOOD", "RECOVERED", "FAILED", "INTERPOLATED", "UNCERTAIN", "STATUS_NAMES", "TrackingResult",
+           "smooth_joints", "check_cutoff"]
 
-GOOD, RECOVERED, FAILED, INTERPOLATED = 0, 1, 2, 3
-STATUS_NAMES = ("good", "recovered", "failed", "interpolated")
+GOOD, RECOVERED, FAILED, INTERPOLATED, UNCERTAIN = 0, 1, 2, 3, 4
+STATUS_NAMES = ("good", "recovered", "failed", "interpolated", "uncertain")
 """What ``status`` values mean (``pose.npz`` and the ``status`` column of ``joints.csv``)."""
 
 STATS = ("energy", "inlier_fraction", "mean_residual", "coverage", "mean_reverse_residual")
@@ -53,6 +57,11 @@ class TrackingResult:
             the tracker's floor when it judged the frame (``TrackerOptions.quality_margin``
             below the median quality of the recent good frames, never under
             ``min_quality``); NaN where no fit was judged.
+        key_point_offset: (F, J) metres from each fitted joint to the learned segmenter's
+            key point of it (:func:`hullcap._confidence.key_point_offsets`); NaN where not
+            measured.
+        joint_status: (F, J) uint8, each joint's status (:data:`STATUS_NAMES`): its frame's,
+            or ``uncertain`` where :meth:`judge` found its confidence too low.
         seconds: seconds spent per stage of tracking the sequence (silhouettes, hull, fit), and
             on the subject's model (its frames and calibration pass included: "subject").
         subject_frame: the frame the subject's model was built from (or a given model
@@ -75,6 +84,8 @@ class TrackingResult:
     iterations: np.ndarray
     link_counts: np.ndarray
     bar: np.ndarray
+    key_point_offset: np.ndarray
+    joint_status: np.ndarray
     seconds: dict = field(default_factory=dict)
     subject_frame: int = -1
 
@@ -82,6 +93,32 @@ class TrackingResult:
     def failed(self) -> np.ndarray:
         """(F,) bool: frames without a pose."""
         return self.status == FAILED
+
+    @property
+    def confidence(self) -> np.ndarray:
+        """(F, J) each joint's confidence in [0, 1], NaN where it is not judged (no key
+        points seen, a frame without a fitted pose): :func:`hullcap._confidence.confidence`."""
+        fitted = ~np.isin(self.status, (FAILED, INTERPOLATED))
+        return confidence(self.model.joint_names, self.key_point_offset, fitted)
+
+    def judge(self) -> None:
+        """Each joint of a good or recovered frame whose :attr:`confidence` is below
+        :data:`~hullcap._confidence.UNSURE_BELOW` becomes ``uncertain`` in
+        :attr:`joint_status`, and its frame in :attr:`status`; the others keep their
+        frame's status. Done once the run is over (the steady offsets are the take's); a
+        second time changes nothing."""
+        unsure = self.confidence < UNSURE_BELOW
+        claimed = np.isin(self.status, (GOOD, RECOVERED))
+        self.joint_status[claimed] = self.status[claimed, None]
+        self.joint_status[claimed[:, None] & unsure] = UNCERTAIN
+        self.status[claimed & unsure.any(axis=1)] = UNCERTAIN
+
+    def joints_kept(self, drop_uncertain: bool = False) -> np.ndarray:
+        """(F, J, 3) :attr:`joints`, with those marked uncertain NaN when `drop_uncertain`
+        (written as gaps)."""
+        if not drop_uncertain:
+            return self.joints
+        return np.where((self.joint_status == UNCERTAIN)[..., None], np.nan, self.joints)
 
     @property
     def quality(self) -> np.ndarray:
@@ -116,9 +153,11 @@ class TrackingResult:
     @classmethod
     def empty(cls, model: BodyModel, n: int, fps: float) -> TrackingResult:
         nan = lambda *shape: np.full((n, *shape), np.nan)  # noqa: E731
-        return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(len(model.joint_names), 3),
+        joints = len(model.joint_names)
+        return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(joints, 3),
                    np.full(n, FAILED, np.uint8), *(nan() for _ in STATS), np.zeros(n, np.int64),
-                   np.zeros((n, len(model.link_model.names), 4), np.int64), nan())
+                   np.zeros((n, len(model.link_model.names), 4), np.int64), nan(), nan(joints),
+                   np.full((n, joints), FAILED, np.uint8))
 
     @classmethod
     def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
@@ -128,14 +167,17 @@ class TrackingResult:
         theta = _checked_array(a, "theta", None, "fiu")
         if theta.ndim != 2 or theta.shape[1] != model.n_dofs:
             raise ResultsError(f"theta has shape {theta.shape}, not (frames, {model.n_dofs}) for this model")
-        n, links = len(theta), len(model.link_model.names)
+        n, links, joints = len(theta), len(model.link_model.names), len(model.joint_names)
 
         def array(key, shape, kinds, default=None):
             return _checked_array(a, key, (n, *shape), kinds) if key in a or default is None else default
 
         status = array("status", (), "iu") if "status" in a else np.where(array("failed", (), "b"), FAILED, GOOD)
-        if not np.isin(status, (GOOD, RECOVERED, FAILED, INTERPOLATED)).all():
-            raise ResultsError(f"status holds codes other than 0–3 ({', '.join(STATUS_NAMES)})")
+        joint_status = array("joint_status", (joints,), "iu", np.repeat(status[:, None], joints, axis=1))
+        for key, codes in (("status", status), ("joint_status", joint_status)):
+            if not np.isin(codes, range(len(STATUS_NAMES))).all():
+                raise ResultsError(f"{key} holds codes other than 0–{len(STATUS_NAMES) - 1} "
+                                   f"({', '.join(STATUS_NAMES)})")
         fps = float(_checked_array(a, "fps", (), "fiu"))
         if not 0 < fps < np.inf:
             raise ResultsError(f"fps must be a positive number, got {fps}")
@@ -146,12 +188,14 @@ class TrackingResult:
                      array("iterations", (), "iu").astype(np.int64),
                      array("link_counts", (links, 4), "iu", np.zeros((n, links, 4), np.int64)).astype(np.int64),
                      array("bar", (), "fiu", np.full(n, np.nan)).astype(float),
+                     array("key_point_offset", (joints,), "fiu", np.full((n, joints), np.nan)).astype(float),
+                     joint_status.astype(np.uint8),
                      subject_frame=int(_checked_array(a, "subject_frame", (), "iu")) if "subject_frame" in a else -1)
         if not -1 <= result.subject_frame < n:
             raise ResultsError(f"subject_frame must be a frame of the run (0–{n - 1}) or -1, "
                                f"got {result.subject_frame}")
         if "joints" in a:
-            result.joints = array("joints", (len(model.joint_names), 3), "fiu").astype(float)
+            result.joints = array("joints", (joints, 3), "fiu").astype(float)
         else:
             for f in np.flatnonzero(~result.failed):
                 result.joints[f] = model.joints(result.theta[f], result.root_rotation[f],
@@ -170,7 +214,8 @@ class TrackingResult:
         self.theta[frame], self.root_rotation[frame], self.root_translation[frame] = \
             p.theta, p.root_rotation, p.root_translation
         self.joints[frame] = self.model.joints(p.theta, p.root_rotation, p.root_translation)
-        self.status[frame] = status
+        self.status[frame] = self.joint_status[frame] = status
+        self.key_point_offset[frame] = np.nan  # measured by the tracker where it can
         for k in STATS:
             getattr(self, k)[frame] = getattr(result, k)
         self.link_counts[frame] = result.link_counts
@@ -181,8 +226,8 @@ class TrackingResult:
 
     def fail(self, frame: int) -> None:
         """Mark a frame failed and forget its pose."""
-        self.status[frame] = FAILED
-        for a in (self.theta, self.root_rotation, self.root_translation, self.joints):
+        self.status[frame] = self.joint_status[frame] = FAILED
+        for a in (self.theta, self.root_rotation, self.root_translation, self.joints, self.key_point_offset):
             a[frame] = np.nan
 
     def arrays(self) -> dict:
@@ -190,7 +235,9 @@ class TrackingResult:
                "theta": self.theta, "dof_names": np.array(self.model.dof_names),
                "joint_names": np.array(self.model.joint_names), "failed": self.failed,
                "status": self.status, "iterations": self.iterations, "link_counts": self.link_counts,
-               "bar": self.bar, "joints": self.joints, "fps": self.fps, "subject_frame": self.subject_frame}
+               "bar": self.bar, "joints": self.joints, "fps": self.fps, "subject_frame": self.subject_frame,
+               "key_point_offset": self.key_point_offset, "joint_status": self.joint_status,
+               "confidence": self.confidence}
         return out | {k: getattr(self, k) for k in STATS}
 
     def interpolated(self) -> TrackingResult:
@@ -201,7 +248,7 @@ class TrackingResult:
 
         out = replace(self, theta=self.theta.copy(), root_rotation=self.root_rotation.copy(),
                       root_translation=self.root_translation.copy(), joints=self.joints.copy(),
-                      status=self.status.copy())
+                      status=self.status.copy(), joint_status=self.joint_status.copy())
         known = np.flatnonzero(~self.failed)
         gaps = np.flatnonzero(self.failed)
         gaps = gaps[(gaps > known.min()) & (gaps < known.max())] if len(known) >= 2 else gaps[:0]
@@ -213,7 +260,7 @@ class TrackingResult:
             for c in range(flat.shape[1]):
                 flat[gaps, c] = np.interp(gaps, known, flat[known, c])
         out.root_rotation[gaps] = Slerp(known, Rotation.from_matrix(self.root_rotation[known]))(gaps).as_matrix()
-        out.status[gaps] = INTERPOLATED
+        out.status[gaps] = out.joint_status[gaps] = INTERPOLATED
         return out
 
 

@@ -13,6 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+
 from hullcap._options import (AT_LEAST_ONE, BOOL, CAMERA_NAMES, FRACTION, POSITIVE, VOLUME, check_fields, flag_fields,
                               from_arguments, from_value, option, or_none, reference_table)
 from hullcap._tracking_options import TrackerOptions
@@ -173,6 +175,7 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     say(f"{out}: {summary.frames - summary.lost} of {summary.frames} frames tracked ({summary.lost} lost, "
         f"{summary.recovered} re-acquired); "
         f"{', '.join(tracker.written)}")
+    say(_judged_line(result))
     if result.subject_frame >= 0:
         say(_subject_line(result.subject_frame, given=model is not None))
     if summary.problems:
@@ -181,6 +184,21 @@ def track_take(sequence, out, options: TakeOptions = TakeOptions(), model=None, 
     if held:
         say(limits_held_line(held))
     return summary
+
+
+def _judged_line(result) -> str:
+    """The line the end of a run gives how many frames have a joint marked uncertain, or
+    that no joint could be judged."""
+    from hullcap._results import UNCERTAIN
+
+    if not np.isfinite(result.confidence).any():
+        return ("joints not judged: no key points of the person (the learned segmenter did not run), so 'good' "
+                "says only that the fit explains the hull (docs/accuracy.md, 'How sure a joint is')")
+    frames = int((result.status == UNCERTAIN).sum())
+    joints = np.flatnonzero((result.joint_status == UNCERTAIN).any(axis=0))
+    which = f": {', '.join(result.model.joint_names[j] for j in joints)}" if frames else ""
+    return (f"{frames} frames uncertain, a joint the person's key points do not support{which} "
+            f"(joints.csv: each joint's status and confidence; report.png)")
 
 
 def limits_held_line(held) -> str:

@@ -138,6 +138,7 @@ class Tracker:
         bar.close()
         checkpoint.write(result, n, state.carried(), self.segmenter.learnt(), self.problems)
         result.seconds = dict(self.seconds)
+        result.judge()
         self.written = ["model/", *write_outputs(out, result, interpolate, smooth_hz)]
         write_report(out / "report.png", result)
         self.written.append("report.png")

@@ -12,7 +12,7 @@ import numpy as np
 
 from hullcap._body import BodyModel
 from hullcap._files import atomic_write, read_npz
-from hullcap._results import INTERPOLATED, STATUS_NAMES, TrackingResult, smooth_joints
+from hullcap._results import INTERPOLATED, STATUS_NAMES, UNCERTAIN, TrackingResult, smooth_joints
 from hullcap.errors import ResultsError
 from hullcap.export._bvh import write_bvh
 from hullcap.export._gltf import write_glb
@@ -50,15 +50,21 @@ def write_outputs(out, result: TrackingResult, interpolate: bool = False, smooth
     return written
 
 
-def write_joints_csv(path, result: TrackingResult) -> None:
-    """``joints.csv``: one row per frame with a pose and joint, with its status."""
-    lines = ["frame,time,joint,x,y,z,status"]
+def write_joints_csv(path, result: TrackingResult, drop_uncertain: bool = False) -> None:
+    """``joints.csv``: one row per frame with a pose and joint, with the joint's status and
+    confidence (empty where it is not judged); without the rows of the joints marked
+    uncertain when `drop_uncertain`."""
+    lines = ["frame,time,joint,x,y,z,status,confidence"]
     names = result.model.joint_names
+    confidence = result.confidence
     for f in np.flatnonzero(~result.failed):
         t = f / result.fps
-        status = STATUS_NAMES[result.status[f]]
-        for name, (x, y, z) in zip(names, result.joints[f]):
-            lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f},{status}")
+        for j, (name, (x, y, z)) in enumerate(zip(names, result.joints[f])):
+            if drop_uncertain and result.joint_status[f, j] == UNCERTAIN:
+                continue
+            c = confidence[f, j]
+            lines.append(f"{f},{t:.6f},{name},{x:.6f},{y:.6f},{z:.6f},{STATUS_NAMES[result.joint_status[f, j]]},"
+                         f"{'' if np.isnan(c) else f'{c:.3f}'}")
     atomic_write(Path(path), ("\n".join(lines) + "\n").encode())
 
 

@@ -12,7 +12,7 @@ import numpy as np
 from hullcap._files import publish
 from hullcap._progress import progress
 from hullcap._render import render_silhouette
-from hullcap._results import FAILED, LIMIT_SIDES, RECOVERED
+from hullcap._results import FAILED, LIMIT_SIDES, RECOVERED, UNCERTAIN
 from hullcap.errors import ViewError
 
 __all__ = ["write_overlays", "write_report", "BONES"]
@@ -116,7 +116,9 @@ def write_report(path, result, truth_joints=None) -> None:
     against the bar the frame had to reach to stand without a search; the mean distance of
     its pairs both ways; the frames where a joint angle was held at one of the model's
     limits (:meth:`~hullcap._results.TrackingResult.at_limits`, the most held first);
-    the frame the subject's model was built from (a dotted line); and, with
+    each joint's confidence (:attr:`~hullcap._results.TrackingResult.confidence`; frames
+    marked uncertain shaded purple); the frame the subject's model was built from (a
+    dotted line); and, with
     `truth_joints` (F × J × 3), the joint error per body region."""
     import matplotlib
 
@@ -127,7 +129,8 @@ def write_report(path, result, truth_joints=None) -> None:
     t = np.arange(len(result.status)) / result.fps
     at_limits = result.at_limits()
     held = result.limits_held(at_limits)[:REPORT_LIMIT_ROWS]
-    heights = [2.6, 2.6, 0.6 + 0.22 * max(len(held), 2)] + ([2.6] if truth_joints is not None else [])
+    heights = ([2.6, 2.6, 0.6 + 0.22 * max(len(held), 2), 0.6 + 0.12 * len(result.model.joint_names)]
+               + ([2.6] if truth_joints is not None else []))
     fig, ax = plt.subplots(len(heights), 1, figsize=(9, sum(heights)), sharex=True,
                            gridspec_kw={"height_ratios": heights})
     ax[0].plot(t, result.inlier_fraction * 100, lw=0.9, color="tab:green", label="model → hull (inliers)")
@@ -142,6 +145,7 @@ def write_report(path, result, truth_joints=None) -> None:
     ax[1].set(ylabel="mean pair distance (mm)")
     ax[1].legend(fontsize=8, ncol=2, loc="upper left")
     _plot_limits_held(ax[2], t, result.model.dof_names, at_limits, held)
+    _plot_confidence(ax[3], t, result)
     if truth_joints is not None:
         names = result.model.joint_names
         err = np.linalg.norm(result.joints - truth_joints[: len(t)], axis=2) * 1000
@@ -150,20 +154,20 @@ def write_report(path, result, truth_joints=None) -> None:
                   "legs": tuple(n for n in names if any(k in n for k in ("hip", "knee", "ankle", "toe")))}
         for label, members in groups.items():
             idx = [names.index(m) for m in members]
-            ax[3].plot(t, err[:, idx].mean(1), lw=1.2, label=label)
-        ax[3].set(ylabel="joint error (mm)")
-        ax[3].legend(fontsize=8, ncol=3)
-    counts = {status: int((result.status == status).sum()) for status in (FAILED, RECOVERED)}
+            ax[4].plot(t, err[:, idx].mean(1), lw=1.2, label=label)
+        ax[4].set(ylabel="joint error (mm)")
+        ax[4].legend(fontsize=8, ncol=3)
+    counts = {status: int((result.status == status).sum()) for status in (FAILED, RECOVERED, UNCERTAIN)}
     fig.suptitle("How well each frame's fit explains its visual hull")
     subject = (f"; the subject's model from frame {result.subject_frame} (dotted)"
                if result.subject_frame >= 0 else "")
     ax[0].set_title(f"{len(t)} frames: {counts[FAILED]} failed (shaded red), {counts[RECOVERED]} recovered by a "
-                    f"search (orange){subject}", fontsize=9)
+                    f"search (orange), {counts[UNCERTAIN]} uncertain (purple){subject}", fontsize=9)
     for a in ax:
         a.grid(alpha=0.3)
         if result.subject_frame >= 0:
             a.axvline(t[result.subject_frame], color="black", ls=":", lw=1.0)
-        for status, colour in ((FAILED, "red"), (RECOVERED, "orange")):
+        for status, colour in ((FAILED, "red"), (RECOVERED, "orange"), (UNCERTAIN, "purple")):
             for f in np.flatnonzero(result.status == status):
                 a.axvspan(t[f] - 0.5 / result.fps, t[f] + 0.5 / result.fps, color=colour, alpha=0.25, lw=0)
     ax[-1].set(xlabel="time (s)")
@@ -176,6 +180,19 @@ def write_report(path, result, truth_joints=None) -> None:
 
 REPORT_LIMIT_ROWS = 12
 """The most joint angles held at a limit that ``report.png`` shows, the most held first."""
+
+
+def _plot_confidence(ax, t, result) -> None:
+    """Each joint's confidence over time, one row per joint, from red (0) to green (1),
+    blank where it is not judged."""
+    shown = np.ma.masked_invalid(result.confidence.T)
+    step = 1 / result.fps
+    ax.imshow(shown, aspect="auto", interpolation="nearest", cmap="RdYlGn", vmin=0.0, vmax=1.0,
+              extent=(t[0] - step / 2, t[-1] + step / 2, len(result.model.joint_names) - 0.5, -0.5))
+    ax.set_yticks(range(len(result.model.joint_names)), result.model.joint_names, fontsize=6)
+    judged = np.isfinite(result.confidence).any()
+    ax.set_title("each joint's confidence: its distance from the person's key points (red 0, green 1)"
+                 if judged else "joints not judged: no key points (the learned segmenter did not run)", fontsize=9)
 
 
 def _plot_limits_held(ax, t, dof_names, at_limits, held) -> None:
