@@ -185,12 +185,13 @@ REPORT_LIMIT_ROWS = 12
 def _plot_confidence(ax, t, result) -> None:
     """Each joint's confidence over time, one row per joint, from red (0) to green (1),
     blank where it is not judged."""
-    shown = np.ma.masked_invalid(result.confidence.T)
+    confidence = result.confidence
+    shown = np.ma.masked_invalid(confidence.T)
     step = 1 / result.fps
     ax.imshow(shown, aspect="auto", interpolation="nearest", cmap="RdYlGn", vmin=0.0, vmax=1.0,
               extent=(t[0] - step / 2, t[-1] + step / 2, len(result.model.joint_names) - 0.5, -0.5))
     ax.set_yticks(range(len(result.model.joint_names)), result.model.joint_names, fontsize=6)
-    judged = np.isfinite(result.confidence).any()
+    judged = np.isfinite(confidence).any()
     ax.set_title("each joint's confidence: its distance from the person's key points (red 0, green 1)"
                  if judged else "joints not judged: no key points (the learned segmenter did not run)", fontsize=9)
 
