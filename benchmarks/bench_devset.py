@@ -32,7 +32,7 @@ of the cores: the same joints to the byte (a fit does not depend on its threads)
 whole table sooner, but each run's frames/s then measure a machine it shared.
 
     .venv/bin/python benchmarks/bench_devset.py [--only d01_bend] [--silhouettes colour exact surface] [--every K]
-        [--cameras K] [--models-from RUNS] [--segmenter auto|learned|colour] [--jobs N]
+        [--cameras K] [--models-from RUNS] [--segmenter auto|learned|colour] [--preset accurate|live] [--jobs N]
 """
 
 from __future__ import annotations
@@ -52,9 +52,10 @@ import devset
 from hullcap._body import BodyModel
 from hullcap._carver import Carver
 from hullcap._results import RECOVERED, STATUS_NAMES
-from hullcap._options import add_flags
+from hullcap._options import GIVEN, add_flags
 from hullcap._sequence import MIN_CAMERAS, Sequence
 from hullcap._tracking import Tracker, TrackerOptions
+from hullcap._tracking_options import PRESETS
 
 
 class TrueSurfaceCarver(Carver):
@@ -198,6 +199,8 @@ def main():
     ap.add_argument("--cameras", type=int, metavar="K",
                     help="track with K of each sequence's cameras, spread evenly round its rig (default: all)")
     add_flags(ap, TrackerOptions, ["segmenter", "learned_every"])
+    ap.add_argument("--preset", choices=list(PRESETS), default="accurate",
+                    help="the tracker's preset (hullcap track --preset); --segmenter and --learned-every over it")
     ap.add_argument("--jobs", type=int, default=1, metavar="N",
                     help="track N runs at a time (frames/s are then those of a shared machine)")
     args = ap.parse_args()
@@ -210,7 +213,9 @@ def main():
         ap.error(f"--jobs must be 1 or more, got {args.jobs}")
     if args.cameras is not None and args.cameras < MIN_CAMERAS:
         ap.error(f"--cameras must be {MIN_CAMERAS} or more, got {args.cameras}")
-    options = TrackerOptions(refine_joints=args.refine, segmenter=args.segmenter, learned_every=args.learned_every)
+    given = getattr(args, GIVEN, set())
+    options = TrackerOptions.preset(args.preset, refine_joints=args.refine,
+                                    **{k: getattr(args, k) for k in ("segmenter", "learned_every") if k in given})
     models_from = None if args.models_from is None else Path(args.models_from)
     names = args.only or devset.names(devset_dir)
     for name in names:  # rendered here, once, before any run reads it

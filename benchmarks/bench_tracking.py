@@ -3,10 +3,11 @@ accuracy on rendered 8-camera sequences.
 
 Speed (the default): for an 8-camera 640×480 development sequence (d01_bend, rendered
 into data/devset/ by bench_devset.py) and for the project's own synthetic sequence, in one
-run: the time of only decoding every frame of every camera (the floor), then a tracking
-run from colour frames by the background test alone and with the learned segmenter (where
-installed; every frame, and every third frame of each view, ``learned_every=3``), with the
-frames read ahead on a second thread, and one reading each frame when it is tracked.
+run: the time of only decoding every frame of every camera (the floor), then tracking runs
+from colour frames by the background test alone and with the learned segmenter (where
+installed), each with the accurate preset (the defaults) and the live one (``hullcap track
+--preset live``) side by side, the frames read ahead on a second thread; and one run of
+the defaults reading each frame when it is tracked.
 Prints per stage milliseconds per frame, frames/s of the fit alone and of tracking (the
 whole run's wall time, outputs included, less the time spent on the subject's model), and
 tracking's time over the floor.
@@ -40,6 +41,7 @@ from hullcap._person import available
 from hullcap._sequence import Sequence
 from hullcap._synth import synthesize
 from hullcap._tracking import Tracker, TrackerOptions
+from hullcap._tracking_options import PRESETS
 
 
 def decode_seconds(seq: Sequence, frames: int) -> float:
@@ -66,29 +68,28 @@ def speed(args) -> None:
         seq = Sequence(path)
         n = len(seq) if args.frames is None else min(args.frames, len(seq))
         floor = decode_seconds(seq, n) / n
-        runs = ([("colour", 2, 1), ("learned", 2, 1), ("learned", 2, 3), ("learned", 0, 1)] if available()
-                else [("colour", 2, 1), ("colour", 0, 1)])
-        for segmenter, read_ahead, every in runs:
-            options = TrackerOptions(ignore_silhouettes=True, read_ahead=read_ahead, segmenter=segmenter,
-                                     learned_every=every)
+        segmenters = ["colour", "learned"] if available() else ["colour"]
+        runs = [(preset, segmenter, 2) for segmenter in segmenters for preset in PRESETS] + [("accurate", "colour", 0)]
+        for preset, segmenter, read_ahead in runs:
+            options = TrackerOptions.preset(preset, ignore_silhouettes=True, read_ahead=read_ahead, segmenter=segmenter)
             t0 = time.perf_counter()
-            result = Tracker(seq, options=options).run(Path(tmp.name) / f"out-{segmenter}{read_ahead}{every}",
+            result = Tracker(seq, options=options).run(Path(tmp.name) / f"out-{preset}-{segmenter}{read_ahead}",
                                                          resume=False, show_progress=False, frames=n)
             sec = {k: v / n for k, v in result.seconds.items()}
             tracking = (time.perf_counter() - t0) / n - sec["subject"]
-            name = segmenter if every == 1 else f"{segmenter}, every {every} frames"
-            rows.append((label, name, read_ahead, 1000 * floor, 1000 * sec.get("read ahead", 0.0),
+            name = segmenter if options.learned_every == 1 else f"{segmenter}, every {options.learned_every} frames"
+            rows.append((label, preset, name, read_ahead, 1000 * floor, 1000 * sec.get("read ahead", 0.0),
                          1000 * sec["silhouettes"], 1000 * sec["hull"], 1000 * sec["fit"], 1 / sec["fit"],
                          1 / tracking, tracking / floor, int(result.failed[:n].sum()), n))
     tmp.cleanup()
     frames = "every frame" if args.frames is None else f"first {args.frames} frames"
     print(f"# tracking speed from colour frames, 8 cameras 640×480, {frames}, {os.cpu_count()} cores\n")
-    print("| sequence | segmenter | read ahead | decoding alone (ms/frame) | read ahead thread (ms/frame) | "
+    print("| sequence | preset | segmenter | read ahead | decoding alone (ms/frame) | read ahead thread (ms/frame) | "
           "silhouettes | hull | fit | fit (frames/s) | tracking (frames/s) | tracking / decoding | lost |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.0f} | {r[4]:.0f} | {r[5]:.0f} | {r[6]:.0f} | {r[7]:.0f} | "
-              f"{r[8]:.1f} | {r[9]:.2f} | {r[10]:.1f}× | {r[11]} of {r[12]} |")
+        print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.0f} | {r[5]:.0f} | {r[6]:.0f} | {r[7]:.0f} | "
+              f"{r[8]:.0f} | {r[9]:.1f} | {r[10]:.2f} | {r[11]:.1f}× | {r[12]} of {r[13]} |")
     print("\nsilhouettes (with drawing the prediction), hull, fit: milliseconds per frame on the tracking thread "
           "(with read-ahead, the decoding and background test run on the other thread and are not in that column).")
 

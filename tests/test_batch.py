@@ -116,6 +116,14 @@ def test_session_toml_gives_subjects_and_options_calibration_takes_first(tmp_pat
                                                       ("a", "p", "b", 0.02, 7, 1.0, ())]
 
 
+def test_a_takes_preset_starts_its_tracker_options_from_that_preset(tmp_path):
+    takes = load_session(_session(tmp_path, '[takes]\na = { preset = "live", voxel_size = 0.03 }\nb = {}\n'))
+    options = {t.name: t.options for t in takes}
+    live = options["a"].tracking
+    assert (options["a"].preset, live.voxel_size, live.learned_every) == ("live", 0.03, 3)
+    assert (options["b"].preset, options["b"].tracking.voxel_size) == ("accurate", 0.01)
+
+
 @pytest.mark.parametrize("toml, message", [
     ("[take]\n", "unknown table 'take'"),
     ("[defaults]\nvoxels = 1\n", "session.toml [defaults]: unknown option 'voxels'"),

@@ -544,3 +544,13 @@ def test_images_read_at_a_smaller_scale_track_the_same_person(short_sequence, tm
     result = Tracker(seq).run(tmp_path / "out", show_progress=False)
     acc = accuracy(result, short_sequence)
     assert acc.failed == 0 and acc.mean_mm < 25, acc.table()
+
+
+def test_the_progress_bar_splits_a_frames_time_by_stage_since_tracking_began():
+    from hullcap._progress import StageSplit
+
+    seconds = {"subject": 30.0, "silhouettes": 1.0}
+    split = StageSplit(seconds)  # the subject's model and what came before are not tracking's
+    seconds.update(silhouettes=1.5, hull=0.2, fit=0.8)
+    assert split.line(10, reading=0.4) == "silhouettes 50, hull 20, fit 80, read ahead 40 ms/frame"
+    assert split.line(0) == "silhouettes 500, hull 200, fit 800 ms/frame"

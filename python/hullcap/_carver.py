@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -41,6 +42,18 @@ class Carver:
         self.volume = volume
         self.problems = problems
         self.seconds = seconds
+        self.voxel_size = options.voxel_size
+        """The finest voxel of the hulls carved now (metres)."""
+
+    @contextmanager
+    def building(self):
+        """While it lasts, hulls are carved as the subject's model is built
+        (``TrackerOptions.subject_voxel_size``)."""
+        self.voxel_size = self.options.subject_voxel_size or self.options.voxel_size
+        try:
+            yield
+        finally:
+            self.voxel_size = self.options.voxel_size
 
     @property
     def tolerance(self) -> int:
@@ -76,7 +89,7 @@ class Carver:
         try:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # views left out are recorded in `problems`
-                surface = visual_hull(masks, self.cameras, self.options.voxel_size, self.volume, report,
+                surface = visual_hull(masks, self.cameras, self.voxel_size, self.volume, report,
                                       tolerance=tolerance, priors=priors)
             if doubt is not None and any(u is not None for u in unsure):
                 keep = ~doubtful_vertices(surface, masks, unsure, self.cameras, doubt, self.options.hull_doubt_views)

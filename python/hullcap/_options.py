@@ -10,7 +10,7 @@ import math
 import types
 import typing
 from collections.abc import Callable
-from dataclasses import MISSING, Field, dataclass, field, fields
+from dataclasses import MISSING, Field, dataclass, field, fields, replace
 
 from hullcap.errors import OptionsError
 
@@ -141,26 +141,46 @@ def _argument_type(f: Field, cls) -> Callable[[str], object]:
     return parse
 
 
+GIVEN = "_flags_given"
+"""The attribute of a parsed namespace holding the flags its command line gave (by field name)."""
+
+
+class _Given(argparse.Action):
+    """Stores a flag's value (or, with `const`, that constant) and records that it was given."""
+
+    def __init__(self, option_strings, dest, const=None, nargs=None, **kwargs):
+        super().__init__(option_strings, dest, nargs=0 if const is not None else nargs, const=const, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, self.const if self.const is not None else values)
+        given = getattr(namespace, GIVEN, set())
+        setattr(namespace, GIVEN, given | {self.dest})
+
+
 def add_flags(parser: argparse.ArgumentParser, cls, names: list[str] | None = None) -> None:
     """Add to `parser` the flags of `cls`'s flag fields (or of the fields `names`), with
-    their help and default."""
+    their help and default; the namespace records which were given (:func:`from_arguments`)."""
     chosen = flag_fields(cls) if names is None else [f for f in fields(cls) if f.name in names]
     for f in chosen:
         default, help = _default(f), f.metadata["help"]
         if isinstance(default, bool):
-            parser.add_argument(flag_name(f), dest=f.name, action="store_false" if default else "store_true",
+            parser.add_argument(flag_name(f), dest=f.name, action=_Given, const=not default, default=default,
                                 help=f"{help} (on by default: this turns it off)" if default else help)
             continue
         said = default is None or default == () or "default" in help
         shown = "" if said else f" (default {default})"
-        parser.add_argument(flag_name(f), dest=f.name, type=_argument_type(f, cls), default=default,
+        parser.add_argument(flag_name(f), dest=f.name, action=_Given, type=_argument_type(f, cls), default=default,
                             metavar=f.metadata.get("metavar") or f.name.upper(), help=f"{help}{shown}")
 
 
-def from_arguments(cls, args: argparse.Namespace, **extra):
-    """`cls` with the flag fields the command line `args` gave, and `extra`."""
-    given = {f.name: getattr(args, f.name) for f in flag_fields(cls) if hasattr(args, f.name)}
-    return cls(**given, **extra)
+def from_arguments(cls, args: argparse.Namespace, base=None, **extra):
+    """`cls` with the flag fields the command line `args` gave over `base` (None: the
+    defaults; a flag the command line did not give keeps `base`'s value), and `extra`."""
+    if base is None:
+        given = {f.name: getattr(args, f.name) for f in flag_fields(cls) if hasattr(args, f.name)}
+        return cls(**given, **extra)
+    named = getattr(args, GIVEN, set())
+    return replace(base, **{f.name: getattr(args, f.name) for f in flag_fields(cls) if f.name in named}, **extra)
 
 
 def reference_table(cls, every: bool = False) -> str:

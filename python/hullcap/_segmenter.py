@@ -289,6 +289,11 @@ class Segmenter:
                 self._guided = [None if b is None else GuidedSegmenter(b, self.guidance) for b in backgrounds]
         return self._guided
 
+    @property
+    def reading_seconds(self) -> float:
+        """Seconds the read-ahead thread has worked so far (0 while none reads ahead)."""
+        return 0.0 if self._ahead is None else self._ahead.seconds
+
     @contextmanager
     def reading_ahead(self, frames):
         """While it lasts, :meth:`segment` takes `frames`, in order, from the read-ahead

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from hullcap._options import (AT_LEAST_ONE, BOOL, CAMERA_NAMES, FRACTION, POSITIVE, VOLUME, check_fields, flag_fields,
-                              from_arguments, from_value, option, or_none, reference_table)
-from hullcap._tracking_options import TrackerOptions
+                              from_arguments, from_value, one_of, option, or_none, reference_table)
+from hullcap._tracking_options import PRESETS, TrackerOptions
 from hullcap.errors import OptionsError, TrackingError
 
 __all__ = ["TakeOptions", "TakeSummary", "options_page", "track_take"]
@@ -37,6 +37,10 @@ class TakeOptions:
     the run's own below. ``session.toml`` takes them as flat keys (:meth:`from_table`)."""
 
     tracking: TrackerOptions = field(default_factory=TrackerOptions)
+    preset: str = option("accurate", rule=one_of(*PRESETS), flag=True, metavar="NAME",
+                         help="'accurate' (the default) or 'live': lighter settings for speed, at some accuracy "
+                              "(docs/performance.md, \"The live preset\"); the tracker's options given with it "
+                              "override its settings")
     volume: tuple[float, ...] | None = option(None, rule=or_none(VOLUME), flag=True, metavar="X0,Y0,Z0,X1,Y1,Z1",
                                               help="the capture volume to carve the hull in, metres (default: what "
                                                    "every camera sees)")
@@ -71,7 +75,8 @@ class TakeOptions:
     @classmethod
     def from_table(cls, table: dict, where: str, base: TakeOptions | None = None) -> TakeOptions:
         """Options from a TOML table (`where` names it in errors) over `base`: every key
-        must be an option, of its type."""
+        must be an option, of its type. A table's ``preset`` starts the tracker's options
+        afresh from that preset, its own tracker keys over it."""
         base = base or cls()
         ours = {f.name for f in flag_fields(cls)}
         tracking = {f.name for f in flag_fields(TrackerOptions)}
@@ -83,12 +88,14 @@ class TakeOptions:
                 theirs[key] = from_value(TrackerOptions, key, value, where)
             else:
                 raise OptionsError(f"{where}: unknown option {key!r}; options: {', '.join(cls.keys())}")
-        return replace(base, tracking=replace(base.tracking, **theirs), **own)
+        tracking = TrackerOptions.preset(own["preset"]) if "preset" in own else base.tracking
+        return replace(base, tracking=replace(tracking, **theirs), **own)
 
     @classmethod
     def from_arguments(cls, args) -> TakeOptions:
         """The options a command line's parsed `args` give (:func:`hullcap._options.add_flags`)."""
-        return from_arguments(cls, args, tracking=from_arguments(TrackerOptions, args))
+        preset = TrackerOptions.preset(getattr(args, "preset", "accurate"))
+        return from_arguments(cls, args, tracking=from_arguments(TrackerOptions, args, base=preset))
 
     def to_dict(self) -> dict:
         """The options as ``session.toml`` keys them (what ``take.json`` records)."""

@@ -43,7 +43,7 @@ from hullcap._files import NPZ_ERRORS
 from hullcap._frame_fitter import FrameFitter
 from hullcap._options import AT_LEAST_ONE, or_none
 from hullcap._problems import ProblemLog
-from hullcap._progress import progress
+from hullcap._progress import StageSplit, progress
 from hullcap._results import TrackingResult, check_cutoff
 from hullcap._run_folder import check_room, check_writable, clear
 from hullcap._segmenter import Segmenter
@@ -121,12 +121,14 @@ class Tracker:
         bar = progress(range(start, n), total=n, desc=f"track {self.sequence.path.name}", enable=show_progress,
                        initial=start)
         frame, carried, learnt = start, state.carried(), self.segmenter.learnt()
+        split = StageSplit(self.seconds)
         try:
             with self.segmenter.reading_ahead(range(start, n)):
                 for frame in bar:
                     if frame > start:
                         carried, learnt = state.carried(), self.segmenter.learnt()
                     self.fitter.track(state, result, frame)
+                    bar.set_postfix_str(split.line(frame + 1 - start, self.segmenter.reading_seconds), refresh=False)
                     if frame % 10 == 0:
                         checkpoint.write(result, frame + 1, state.carried(), self.segmenter.learnt(), self.problems)
         except BaseException:
@@ -154,7 +156,7 @@ class Tracker:
         """``(empty result, first frame, tracking state)`` of a new run: the subject's model
         built (or the given one placed) and saved in ``out/model``."""
         t0, before = time.perf_counter(), dict(self.seconds)
-        with self.segmenter.every_frame():
+        with self.segmenter.every_frame(), self.carver.building():
             model, start, anchor = self.subject.build(n, self.model, show_progress)
         window = list(range(start, self.subject.window_end(start, n)))
         self.segmenter.teach_at = self.segmenter.teaching_frames(window)

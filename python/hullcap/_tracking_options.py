@@ -14,7 +14,7 @@ from hullcap._reacquire import SearchOptions
 from hullcap._silhouette import BACKGROUND_MODELS
 from hullcap._subject import SubjectOptions
 
-__all__ = ["OVER_RELAXATION", "TrackerOptions", "quick_fit_options", "settings"]
+__all__ = ["OVER_RELAXATION", "PRESETS", "TrackerOptions", "quick_fit_options", "settings"]
 
 NOT_RESULTS = frozenset({"read_ahead", "threads"})
 """Options that change how fast a run goes, not what it finds (:func:`settings` leaves them out)."""
@@ -32,6 +32,24 @@ def quick_fit_options() -> FitOptions:
     since fit options can be changed in place."""
     return FitOptions(hierarchical=False, iterations=15, tolerance=3e-4, reverse_weight=1.0,
                       over_relaxation=OVER_RELAXATION)
+
+
+def frame_fit_options(**changes) -> FitOptions:
+    """The per-frame fit (``TrackerOptions.fit``): two-sided, hierarchical, one round of
+    coarse stages, its steps over-relaxed; `changes` over that; a new object each call."""
+    return FitOptions(rounds=1, reverse_weight=1.0, coarse=2, over_relaxation=OVER_RELAXATION).replace(**changes)
+
+
+def _live() -> dict:
+    """The settings the live preset changes (docs/performance.md, "The live preset": what
+    each costs in accuracy and buys in speed)."""
+    return {"voxel_size": 0.02, "subject_voxel_size": VOXEL_SIZE,
+            "fit": frame_fit_options(iterations=6, tolerance=2e-3), "learned_every": 3}
+
+
+PRESETS = {"accurate": dict, "live": _live}
+"""Each preset's settings over the defaults (a function, so that each gets fresh fit
+options): ``accurate``, the defaults; ``live``, lighter settings for speed."""
 
 
 @dataclass(frozen=True)
@@ -65,6 +83,10 @@ class TrackerOptions:
     # The visual hull (hullcap._carver)
     voxel_size: float = option(VOXEL_SIZE, rule=POSITIVE, flag=True, metavar="METRES",
                                help="the visual hull's voxel size in metres")
+    subject_voxel_size: float | None = option(None, rule=or_none(POSITIVE),
+                                              help="the finest voxel of the hulls the subject's model is built "
+                                                   "from (None: voxel_size): built once, it may take finer hulls "
+                                                   "than tracking carves every frame")
     hull_tolerance: int | None = option(None, rule=or_none(NON_NEGATIVE_INT),
                                         help="views that may leave a voxel out where the prediction puts the body "
                                              "(None: 1 from background subtraction, 0 from given silhouettes)")
@@ -88,8 +110,7 @@ class TrackerOptions:
     min_subject_agreement: float = option(0.5, rule=FRACTION, help="mean IoU of the model's and the masks' "
                                                                    "silhouettes for tracking to start at a frame")
     # Each frame's fit (hullcap._frame_fitter)
-    fit: FitOptions = option(factory=lambda: FitOptions(rounds=1, reverse_weight=1.0, coarse=2,
-                                                        over_relaxation=OVER_RELAXATION),
+    fit: FitOptions = option(factory=frame_fit_options,
                              help="the per-frame fit: two-sided, hierarchical, one round of coarse stages")
     quick_fit: FitOptions | None = option(None, help="when set, the fit from each start in place of fit, for speed")
     girdle_fit: FitOptions | None = option(factory=quick_fit_options,
@@ -134,6 +155,13 @@ class TrackerOptions:
 
     def __post_init__(self):
         check_fields(self)
+
+    @classmethod
+    def preset(cls, name: str, **changes) -> TrackerOptions:
+        """The options of preset `name` (:data:`PRESETS`: ``"accurate"``, the defaults;
+        ``"live"``, lighter settings for speed), with `changes` over them."""
+        one_of(*PRESETS).check("preset", name)
+        return cls(**{**PRESETS[name](), **changes})
 
 
 def settings(options) -> dict[str, object]:
