@@ -6,7 +6,7 @@ from collections import defaultdict
 
 import numpy as np
 import pytest
-from hullcap import Sequence, TrackerOptions
+from hullcap import BodyModel, PoseParameters, Sequence, TrackerOptions
 from hullcap._cameras import ring
 from hullcap._guided import GuidedOptions, GuidedSegmenter, learned_logit
 from hullcap._person import (_ANCHORS, CROP_SCALE, LANDMARK_SIZE, TRACK_GAP, PersonSegmenter, PersonView,
@@ -165,6 +165,36 @@ def test_learned_every_k_frames_runs_on_a_share_of_the_views_and_on_all_while_bu
     assert all(person is not None for person in segmenter.people[1])
     segmenter.segment(5)
     assert sum(person is not None for person in segmenter.people[1]) == 2
+
+
+@needs_the_extra
+def test_every_views_latest_key_points_judge_the_heading_and_a_resume_keeps_them(rendered, monkeypatch):
+    """With the learned segmenter every other frame a frame has key points in half its views;
+    the heading is judged by each view's latest, and a checkpoint keeps them exactly."""
+    import hullcap._segmenter as module
+
+    def segmenter():
+        made = Segmenter(Sequence(rendered), TrackerOptions(ignore_silhouettes=True, learned_every=2),
+                         ProblemLog(warn=False), defaultdict(float))
+        made.prepare()
+        return made
+
+    first = segmenter()
+    for frame in (4, 5):
+        first.segment(frame)
+    voted = []
+    monkeypatch.setattr(module, "facing_agreement", lambda views, cameras, joints: voted.append(views) or 0.0)
+    model = BodyModel.template()
+    first.facing(5)(model, PoseParameters.rest(model))
+    assert all(view is not None for view in voted[0])  # frame 4's views and frame 5's
+    assert first.facing(6) is None  # not the frame last segmented
+    arrays = dict(first.learnt())
+    second = segmenter()
+    second.relearn(arrays)
+    assert "learnt_people" not in arrays
+    for (f1, p1), (f2, p2) in zip(first._latest_people, second._latest_people):
+        assert f1 == f2 and np.array_equal(p1.key_points, p2.key_points)
+        assert np.array_equal(p1.visibility, p2.visibility) and p1.score == p2.score
 
 
 @needs_the_extra

@@ -24,7 +24,7 @@ import numpy as np
 from hullcap._body import BodyModel
 from hullcap._fitting import PoseParameters
 from hullcap._guided import GuidedSegmenter
-from hullcap._person import PersonSegmenter, PersonView, facing_agreement, missing
+from hullcap._person import KEY_POINTS, PersonSegmenter, PersonView, facing_agreement, missing
 from hullcap._problems import ProblemLog
 from hullcap._render import model_silhouettes
 from hullcap._sequence import Sequence
@@ -40,6 +40,9 @@ LEARNT_TEACH_AT = "learnt_teach_at"
 LEARNT_COLOURS = ("learnt_colours_subject", "learnt_colours_background")
 LEARNT_CROPS = "learnt_crops"
 """Per camera: the frame, hip centre and body top the learned segmenter follows (frame -1: none)."""
+LEARNT_PEOPLE = "learnt_people"
+"""Per camera: the last frame the learned segmenter ran on (-1: none, or nobody found), and
+the score, key points and their visibility it saw there (``Segmenter.facing``)."""
 
 
 @dataclass
@@ -91,6 +94,8 @@ class Segmenter:
         self.people: tuple[int, list[PersonView | None]] = (-1, [])
         """The last frame segmented and what the learned segmenter saw of the person in
         each of its views (None where it did not run or found nobody)."""
+        self._latest_people: list[tuple[int, PersonView | None]] = []
+        """Per view, the last frame the learned segmenter ran on and what it saw there."""
 
     @property
     def given(self) -> bool:
@@ -129,6 +134,7 @@ class Segmenter:
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
         self.people = (frame, [view.person if isinstance(view, _Input) else None for view in inputs])
+        self._remember_people(frame)
         self._crops = self._crops_after.pop(frame, self._crops)
         segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks, unsure = [], []
@@ -196,11 +202,24 @@ class Segmenter:
         finally:
             self._every_frame = False
 
+    def _remember_people(self, frame: int) -> None:
+        """Keep, per view, what the learned segmenter saw where it ran on `frame` (the frame
+        just segmented)."""
+        _, views = self.people
+        if len(self._latest_people) != len(views):
+            self._latest_people = [(-1, None)] * len(views)
+        for i, person in enumerate(views):
+            if self.learned and self.learned_runs(frame, i):
+                self._latest_people[i] = (frame, person)
+
     def facing(self, frame: int):
         """The way the person of `frame` (the frame last segmented) faces, as the learned
         segmenter's key points say: a function of a model and a pose, from -1 (facing away)
-        to 1 (:func:`hullcap._person.facing_agreement`); None without key points."""
-        seen, views = self.people
+        to 1 (:func:`hullcap._person.facing_agreement`); None without key points. Where the
+        learned segmenter runs in a view every few frames (``learned_every``), that view's
+        latest key points vote: a person does not turn round between them."""
+        seen, _ = self.people
+        views = [person if frame - f < self.options.learned_every else None for f, person in self._latest_people]
         if seen != frame or not any(v is not None for v in views):
             return None
         cameras = self.sequence.cameras
@@ -357,6 +376,11 @@ class Segmenter:
         learnt = {LEARNT_TEACH_AT: np.asarray(self.teach_at, np.int64)}
         if self._crops:
             learnt[LEARNT_CROPS] = np.array([[-1.0] * 5 if c is None else [c[0], *c[1], *c[2]] for c in self._crops])
+        if self._latest_people:
+            width = 2 + 3 * KEY_POINTS
+            learnt[LEARNT_PEOPLE] = np.array([
+                [-1.0] * width if p is None else [f, p.score, *p.key_points.ravel(), *p.visibility]
+                for f, p in self._latest_people])
         if self.guides:
             known = next(g for g in self._guided if g is not None)  # a camera without its background: none
             for name, part in zip(LEARNT_COLOURS, ("subject", "background")):
@@ -380,6 +404,9 @@ class Segmenter:
                 # float32, as the landmark model gave them: the crop is computed from them as it was
                 hip, top = c[1:3].astype(np.float32), c[3:5].astype(np.float32)
                 person.followed = None if c[0] < 0 else (int(c[0]), hip, top)
+        people = arrays.pop(LEARNT_PEOPLE, None)
+        if people is not None and self.learned:
+            self._latest_people = [_person_from_row(row, len(people)) for row in np.asarray(people, float)]
         colours = [arrays.pop(name, None) for name in LEARNT_COLOURS]
         if colours[0] is not None and self.guides:
             if any(len(c) != len(self._guided) for c in colours):
@@ -387,6 +414,19 @@ class Segmenter:
             for g, subject, background in zip(self._guided, *colours):
                 if g is not None:
                     g.colours.restore(subject, background)
+
+
+def _person_from_row(row: np.ndarray, cameras: int) -> tuple[int, PersonView | None]:
+    """``(frame, what the learned segmenter saw)`` of one camera from a checkpoint's row of
+    :data:`LEARNT_PEOPLE` (its key points only: no probabilities are kept)."""
+    if row.shape != (2 + 3 * KEY_POINTS,):
+        raise ValueError(f"{LEARNT_PEOPLE} has rows of {row.shape[0]} numbers, not {2 + 3 * KEY_POINTS} "
+                         f"({cameras} cameras)")
+    if row[0] < 0:
+        return -1, None
+    points = row[2:2 + 2 * KEY_POINTS].reshape(KEY_POINTS, 2).astype(np.float32)
+    return int(row[0]), PersonView(np.zeros((0, 0), np.float32), points, row[2 + 2 * KEY_POINTS:].astype(np.float32),
+                                   float(row[1]))
 
 
 def spread(frames: list[int], n: int) -> list[int]:
