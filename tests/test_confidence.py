@@ -54,6 +54,20 @@ def test_a_joint_on_its_key_points_is_0_off_and_a_shifted_one_as_far_as_its_dept
     assert off[elbow] == pytest.approx(np.median(expected), rel=1e-3)
 
 
+def test_each_views_key_points_are_measured_against_the_joints_of_the_frame_they_were_seen_in(scene):
+    """Where the learned segmenter ran on a view a frame or two ago, its key points are held
+    against the joints of that frame, not of this one: a body that moved is not off."""
+    cameras, joints = scene
+    moved = joints + [0.3, 0.0, 0.0]  # this frame's joints; two views were seen a frame before
+    views = _seen(cameras[:2], NAMES, joints) + _seen(cameras[2:], NAMES, moved)
+    each = np.stack([joints, joints, moved, moved])
+    elbow = NAMES.index("l_elbow")
+    assert key_point_offsets(views, cameras, NAMES, each)[elbow] == pytest.approx(0.0, abs=1e-6)
+    assert key_point_offsets(views, cameras, NAMES, moved)[elbow] > 0.05  # against this frame's alone: off
+    each[0] = np.nan  # a view whose frame was not fitted does not count
+    assert key_point_offsets(views, cameras, NAMES, each)[elbow] == pytest.approx(0.0, abs=1e-6)
+
+
 def test_fewer_views_than_the_least_or_key_points_out_of_view_leave_a_joint_unmeasured(scene):
     cameras, joints = scene
     views = _seen(cameras, NAMES, joints)

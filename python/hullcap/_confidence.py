@@ -50,19 +50,23 @@ UNSURE_BELOW = 0.5
 
 
 def key_point_offsets(views, cameras, joint_names, joints: np.ndarray) -> np.ndarray:
-    """(J,) how far each of `joints` ((J, 3) world metres, named `joint_names`) lies from
-    the person's key point of it: in each view (a :class:`~hullcap._person.PersonView` or
-    None per camera of `cameras`) that sees the key point, the image distance at the joint's
-    depth (metres across the view's ray); the median over those views. NaN for a joint
-    without a key point or seen by fewer than :data:`MIN_VIEWS` views."""
+    """(J,) how far each joint lies from the person's key point of it: in each view (a
+    :class:`~hullcap._person.PersonView` or None per camera of `cameras`) that sees the key
+    point, the image distance at the joint's depth (metres across the view's ray); the
+    median over those views. `joints` are world metres named `joint_names`: (J, 3), or
+    (V, J, 3), each view's joints at the frame of its key points (a view whose joints are
+    not finite, a frame not fitted, does not count). NaN for a joint without a key point
+    or seen by fewer than :data:`MIN_VIEWS` views."""
     out = np.full(len(joint_names), np.nan)
     judged = [(j, KEY_POINTS_OF[n]) for j, n in enumerate(joint_names) if n in KEY_POINTS_OF]
-    if not judged or not np.isfinite(joints).all():
+    joints = np.asarray(joints, float)
+    each = joints if joints.ndim == 3 else np.broadcast_to(joints, (len(cameras), *joints.shape))
+    if not judged:
         return out
     per_view = np.full((len(cameras), len(judged)), np.nan)
-    points = joints[[j for j, _ in judged]]
     for c, (view, cam) in enumerate(zip(views, cameras)):
-        if view is None:
+        points = each[c][[j for j, _ in judged]]
+        if view is None or not np.isfinite(points).all():
             continue
         pixels, depth = cam.project(points)
         for k, (_, key) in enumerate(judged):

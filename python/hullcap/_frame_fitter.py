@@ -142,10 +142,14 @@ class FrameFitter:
         result.record(frame, best, status, iterations, bar)
         if status != FAILED:
             state.remember_fit(best)
-            seen, views = self.segmenter.people
-            if seen == frame:
+            if self.segmenter.people[0] == frame:
+                # each view's latest key points (a few frames old where the learned segmenter
+                # runs every few frames) against the joints of the frame they were seen in
+                recent = self.segmenter.recent_people(frame)
+                views = [None if r is None else r[1] for r in recent]
+                joints = np.stack([result.joints[frame if r is None else r[0]] for r in recent])
                 result.key_point_offset[frame] = key_point_offsets(views, self.segmenter.sequence.cameras,
-                                                                   result.model.joint_names, result.joints[frame])
+                                                                   result.model.joint_names, joints)
         self.seconds["fit"] += time.perf_counter() - t0
         if passed:
             self.segmenter.teach(frame, state.guide, best.pose)

@@ -212,6 +212,13 @@ class Segmenter:
             if self.learned and self.learned_runs(frame, i):
                 self._latest_people[i] = (frame, person)
 
+    def recent_people(self, frame: int) -> list[tuple[int, PersonView] | None]:
+        """Per view, ``(frame seen, what the learned segmenter saw)`` of the last frame up
+        to `frame` it ran on in that view, when that is one of the last ``learned_every``
+        frames and it found the person there; else None."""
+        return [(f, p) if p is not None and 0 <= frame - f < self.options.learned_every else None
+                for f, p in self._latest_people]
+
     def facing(self, frame: int):
         """The way the person of `frame` (the frame last segmented) faces, as the learned
         segmenter's key points say: a function of a model and a pose, from -1 (facing away)
@@ -219,7 +226,7 @@ class Segmenter:
         learned segmenter runs in a view every few frames (``learned_every``), that view's
         latest key points vote: a person does not turn round between them."""
         seen, _ = self.people
-        views = [person if frame - f < self.options.learned_every else None for f, person in self._latest_people]
+        views = [None if r is None else r[1] for r in self.recent_people(frame)]
         if seen != frame or not any(v is not None for v in views):
             return None
         cameras = self.sequence.cameras
