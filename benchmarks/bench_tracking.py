@@ -77,7 +77,8 @@ def speed(args) -> None:
                                                          resume=False, show_progress=False, frames=n)
             sec = {k: v / n for k, v in result.seconds.items()}
             tracking = (time.perf_counter() - t0) / n - sec["subject"]
-            name = segmenter if options.learned_every == 1 else f"{segmenter}, every {options.learned_every} frames"
+            every = options.learned_every
+            name = segmenter if segmenter == "colour" or every == 1 else f"{segmenter}, every {every} frames"
             rows.append((label, preset, name, read_ahead, 1000 * floor, 1000 * sec.get("read ahead", 0.0),
                          1000 * sec["silhouettes"], 1000 * sec["hull"], 1000 * sec["fit"], 1 / sec["fit"],
                          1 / tracking, tracking / floor, int(result.failed[:n].sum()), n))

@@ -42,7 +42,7 @@ LEARNT_CROPS = "learnt_crops"
 """Per camera: the frame, hip centre and body top the learned segmenter follows (frame -1: none)."""
 LEARNT_PEOPLE = "learnt_people"
 """Per camera: the last frame the learned segmenter ran on (-1: none, or nobody found), and
-the score, key points and their visibility it saw there (``Segmenter.facing``)."""
+the score, key points and their visibility it saw there (``Segmenter.recent_people``)."""
 
 
 @dataclass
@@ -383,7 +383,7 @@ class Segmenter:
         learnt = {LEARNT_TEACH_AT: np.asarray(self.teach_at, np.int64)}
         if self._crops:
             learnt[LEARNT_CROPS] = np.array([[-1.0] * 5 if c is None else [c[0], *c[1], *c[2]] for c in self._crops])
-        if self._latest_people:
+        if self.learned and self._latest_people:
             width = 2 + 3 * KEY_POINTS
             learnt[LEARNT_PEOPLE] = np.array([
                 [-1.0] * width if p is None else [f, p.score, *p.key_points.ravel(), *p.visibility]
