@@ -554,3 +554,12 @@ def test_the_progress_bar_splits_a_frames_time_by_stage_since_tracking_began():
     seconds.update(silhouettes=1.5, hull=0.2, fit=0.8)
     assert split.line(10, reading=0.4) == "silhouettes 50, hull 20, fit 80, read ahead 40 ms/frame"
     assert split.line(0) == "silhouettes 500, hull 200, fit 800 ms/frame"
+
+
+def test_the_live_preset_builds_the_subjects_model_from_finer_hulls_than_it_tracks_with(sequence):
+    carver = Tracker(sequence, options=TrackerOptions.preset("live")).carver
+    with carver.building():
+        fine = carver.carve(0)[0]
+    coarse = carver.carve(0)[0]
+    # a surface of the same body at twice the voxel: about a quarter of the vertices
+    assert 2.5 < len(fine.vertices) / len(coarse.vertices) < 6
