@@ -134,7 +134,7 @@ class Segmenter:
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
         self.people = (frame, [view.person if isinstance(view, _Input) else None for view in inputs])
-        self._remember_people(frame)
+        self._remember_people(frame, self.people[1])
         self._crops = self._crops_after.pop(frame, self._crops)
         segmented_views = dict(zip(to_segment, over_views(segmented, to_segment)))
         masks, unsure = [], []
@@ -202,10 +202,8 @@ class Segmenter:
         finally:
             self._every_frame = False
 
-    def _remember_people(self, frame: int) -> None:
-        """Keep, per view, what the learned segmenter saw where it ran on `frame` (the frame
-        just segmented)."""
-        _, views = self.people
+    def _remember_people(self, frame: int, views: list[PersonView | None]) -> None:
+        """Keep, per view, what the learned segmenter saw (`views`) where it ran on `frame`."""
         if len(self._latest_people) != len(views):
             self._latest_people = [(-1, None)] * len(views)
         for i, person in enumerate(views):
