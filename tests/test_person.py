@@ -152,6 +152,19 @@ def test_a_take_without_a_background_is_segmented_by_the_learned_segmenter_alone
 
 
 @needs_the_extra
+def test_a_view_without_a_background_is_segmented_on_every_frame_whatever_learned_every(rendered, tmp_path):
+    """Where the learned segmenter runs every few frames, a view with no background image
+    still needs it on every frame: nothing else gives that view a mask."""
+    seq = _without_background(rendered, tmp_path)
+    segmenter = Segmenter(seq, TrackerOptions(learned_every=3), ProblemLog(warn=False), defaultdict(float))
+    segmenter.prepare(6)
+    for frame in (4, 5):
+        masks, _ = segmenter.segment(frame)
+        assert all(person is not None for person in segmenter.people[1]), frame
+        assert all((mask > 0).sum() > 100 for mask in masks), frame
+
+
+@needs_the_extra
 def test_learned_every_k_frames_runs_on_a_share_of_the_views_and_on_all_while_building(rendered):
     options = TrackerOptions(ignore_silhouettes=True, learned_every=2)
     segmenter = Segmenter(Sequence(rendered), options, ProblemLog(warn=False), defaultdict(float))

@@ -236,9 +236,11 @@ class Segmenter:
 
     def learned_runs(self, frame: int, i: int) -> bool:
         """Whether the learned segmenter runs on view `i` at `frame`: on every frame while
-        the subject's model is built, else every ``learned_every`` frames, staggered over
-        the views so that each frame has its share of them."""
-        return self._every_frame or (frame + i) % self.options.learned_every == 0
+        the subject's model is built, and in a view without a background image (it alone
+        segments that view); else every ``learned_every`` frames, staggered over the views
+        so that each frame has its share of them."""
+        alone = self._backgrounds is not None and self._backgrounds[i] is None
+        return self._every_frame or alone or (frame + i) % self.options.learned_every == 0
 
     def _images(self, frame: int) -> list[np.ndarray | None]:
         """Frame `frame` of every camera; ``None`` for a view that cannot be used (recorded)."""
