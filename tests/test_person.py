@@ -212,8 +212,8 @@ def test_every_views_latest_key_points_judge_the_heading_and_a_resume_keeps_them
 
 @needs_the_extra
 def test_the_detector_places_every_crop_while_building_and_the_person_is_followed_after(rendered):
-    segmenter = Segmenter(Sequence(rendered), TrackerOptions(ignore_silhouettes=True), ProblemLog(warn=False),
-                          defaultdict(float))
+    segmenter = Segmenter(Sequence(rendered), TrackerOptions(ignore_silhouettes=True, learned_every=1),
+                          ProblemLog(warn=False), defaultdict(float))
     segmenter.prepare()
     with segmenter.every_frame():
         for frame in (0, 1, 2):
@@ -261,6 +261,10 @@ def test_the_key_points_tell_a_body_facing_backwards_from_one_facing_the_person(
     assert facing_agreement(views, cams, turned) == pytest.approx(-1.0)
     unsure = [PersonView(v.probability, v.key_points, np.zeros(33, np.float32), v.score) for v in views]
     assert facing_agreement(unsure, cams, joints) == 0.0 and facing_agreement([None] * 6, cams, joints) == 0.0
+    # One view alone does not tell: its left and right may be swapped (a person seen from behind).
+    alone = [views[0]] + [None] * 5
+    assert facing_agreement(alone, cams, turned) == 0.0
+    assert facing_agreement(alone[:1] + views[1:2] + [None] * 4, cams, turned) == pytest.approx(-1.0)
 
 
 def test_a_take_tracked_from_colour_alone_says_so_once(rendered, tmp_path, monkeypatch):

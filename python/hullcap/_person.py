@@ -47,6 +47,9 @@ SIDES = {"shoulder": (11, 12), "hip": (23, 24)}
 """MediaPipe's key points of the person's left and right shoulders and hips."""
 MIN_VISIBILITY = 0.5
 """Key points the model is less sure than this are in view do not vote on the heading."""
+MIN_VOTERS = 2
+"""Views that must have a say before the key points tell a heading: one view alone may have
+left and right swapped (a person seen from behind taken for one facing the camera)."""
 
 
 def missing() -> str | None:
@@ -252,8 +255,9 @@ def facing_agreement(views, cameras, joints: dict[str, np.ndarray]) -> float:
     points tell left from right: in each view, the image direction from the person's right
     shoulder and hip to the left ones is compared with the body's, drawn into that view, and
     the views vote, each by the length of its own direction (a view from the side, where
-    left and right overlap, says little)."""
-    votes, weight = 0.0, 0.0
+    left and right overlap, says little); 0 too when fewer than :data:`MIN_VOTERS` views
+    have a say."""
+    votes, weight, voters = 0.0, 0.0, 0
     for view, cam in zip(views, cameras):
         if view is None:
             continue
@@ -268,4 +272,5 @@ def facing_agreement(views, cameras, joints: dict[str, np.ndarray]) -> float:
         if length > 0 and model_length > 0:
             votes += float(seen @ drawn) / model_length
             weight += length
-    return votes / weight if weight > 0 else 0.0
+            voters += 1
+    return votes / weight if weight > 0 and voters >= MIN_VOTERS else 0.0
