@@ -70,10 +70,12 @@ class TrackerOptions:
                                  "fused with the background test where there is a background image "
                                  "(hullcap[segment], docs/segmentation.md); 'colour', the background test alone; "
                                  "'auto', learned where it is installed")
-    learned_every: int = option(1, rule=AT_LEAST_ONE, help="run the learned segmenter in each view every this "
+    learned_every: int = option(2, rule=AT_LEAST_ONE, help="run the learned segmenter in each view every this "
                                                             "many frames, the views taking turns (every frame "
-                                                            "while the subject's model is built); faster, less "
-                                                            "accurate (docs/segmentation.md)")
+                                                            "while the subject's model is built, and in a view "
+                                                            "without a background image); 1, every frame: slower, "
+                                                            "and no more accurate on the development set "
+                                                            "(docs/segmentation.md)")
     guided: bool = option(True, rule=BOOL, help="guide each frame's statistical test by the predicted model and "
                                                 "the subject's colours (hullcap._guided)")
     guidance: GuidedOptions = option(factory=GuidedOptions, help="the guided silhouettes' options")
