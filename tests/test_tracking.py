@@ -563,3 +563,29 @@ def test_the_live_preset_builds_the_subjects_model_from_finer_hulls_than_it_trac
     coarse = carver.carve(0)[0]
     # a surface of the same body at twice the voxel: about a quarter of the vertices
     assert 2.5 < len(fine.vertices) / len(coarse.vertices) < 6
+
+
+
+def test_the_subjects_model_is_searched_for_as_the_default_fit_does_whichever_preset_tracks(sequence, monkeypatch):
+    """The model's first seconds are tracked, and searched where a fit falls short, by the
+    same fits whatever fit tracking takes after (the live preset's shorter one too): the
+    model is built once and does not depend on how the sequence is tracked with it."""
+    import hullcap._subject_builder as builder
+
+    class Seen(Exception):
+        pass
+
+    def state(model, options, anchor, search_fit=None, guide=None):
+        raise Seen(options.fit, search_fit)
+
+    monkeypatch.setattr(builder, "TrackingState", state)
+    fits = []
+    for preset in ("accurate", "live"):
+        options = TrackerOptions.preset(preset, ignore_silhouettes=True, segmenter="colour")
+        tracker = Tracker(sequence, options=options)
+        tracker.segmenter.prepare()
+        with pytest.raises(Seen) as seen:
+            tracker.subject.build(len(Sequence(sequence)), show_progress=False)
+        fits.append(seen.value.args)
+    assert fits[0] == fits[1]
+    assert fits[0][1].iterations == TrackerOptions().fit.iterations != TrackerOptions.preset("live").fit.iterations

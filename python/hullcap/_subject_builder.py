@@ -19,7 +19,7 @@ from hullcap._results import TrackingResult
 from hullcap._segmenter import spread
 from hullcap._subject import SubjectFit, bent_frames, build_subject, fitted_surface, place_model, search_centres
 from hullcap._threads import over_fits
-from hullcap._tracking_options import TrackerOptions
+from hullcap._tracking_options import TrackerOptions, frame_fit_options
 from hullcap._tracking_state import TrackingState
 from hullcap.errors import TrackingError
 
@@ -140,7 +140,9 @@ class SubjectBuilder:
 
         Every fit here steps as ``calibration_fit`` does (the knee search turns on small
         differences between these poses), the search's too, and a pose the search finds
-        is fitted again in full. No frame fails: a failed frame leaves the next without
+        is fitted again in full. The search fits its candidates as the default per-frame
+        fit does, whatever fit tracking takes after (a preset's, or one given): the model
+        does not depend on how the sequence is tracked with it. No frame fails: a failed frame leaves the next without
         the prior that guides its silhouettes, and a model built from one standing frame
         explains a bend less well than the refined one will; only the frames whose fits
         reach ``min_quality`` build the model."""
@@ -148,7 +150,7 @@ class SubjectBuilder:
         strict = replace(options, fit=options.calibration_fit, quick_fit=None, girdle_fit=None,
                          recheck_margin=None, search=replace(options.search, girdle_tolerance=0.0),
                          hull_doubt=None, min_quality=0.0)
-        search_fit = options.fit.replace(over_relaxation=options.calibration_fit.over_relaxation)
+        search_fit = frame_fit_options(over_relaxation=options.calibration_fit.over_relaxation)
         state = TrackingState(subject.model, strict, subject.fit, search_fit=search_fit)
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
         for frame in progress(range(first, last), total=last - first, desc="subject model", enable=show_progress):

@@ -14,7 +14,7 @@ from hullcap._reacquire import SearchOptions
 from hullcap._silhouette import BACKGROUND_MODELS
 from hullcap._subject import SubjectOptions
 
-__all__ = ["OVER_RELAXATION", "PRESETS", "TrackerOptions", "quick_fit_options", "settings"]
+__all__ = ["OVER_RELAXATION", "PRESETS", "TrackerOptions", "frame_fit_options", "quick_fit_options", "settings"]
 
 NOT_RESULTS = frozenset({"read_ahead", "threads"})
 """Options that change how fast a run goes, not what it finds (:func:`settings` leaves them out)."""
