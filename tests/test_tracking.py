@@ -565,7 +565,6 @@ def test_the_live_preset_builds_the_subjects_model_from_finer_hulls_than_it_trac
     assert 2.5 < len(fine.vertices) / len(coarse.vertices) < 6
 
 
-
 def test_the_subjects_model_is_searched_for_as_the_default_fit_does_whichever_preset_tracks(sequence, monkeypatch):
     """The model's first seconds are tracked, and searched where a fit falls short, by the
     same fits whatever fit tracking takes after (the live preset's shorter one too): the

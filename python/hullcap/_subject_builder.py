@@ -142,10 +142,10 @@ class SubjectBuilder:
         differences between these poses), the search's too, and a pose the search finds
         is fitted again in full. The search fits its candidates as the default per-frame
         fit does, whatever fit tracking takes after (a preset's, or one given): the model
-        does not depend on how the sequence is tracked with it. No frame fails: a failed frame leaves the next without
-        the prior that guides its silhouettes, and a model built from one standing frame
-        explains a bend less well than the refined one will; only the frames whose fits
-        reach ``min_quality`` build the model."""
+        does not depend on how the sequence is tracked with it. No frame fails: a failed
+        frame leaves the next without the prior that guides its silhouettes, and a model
+        built from one standing frame explains a bend less well than the refined one will;
+        only the frames whose fits reach ``min_quality`` build the model."""
         options = self.options
         strict = replace(options, fit=options.calibration_fit, quick_fit=None, girdle_fit=None,
                          recheck_margin=None, search=replace(options.search, girdle_tolerance=0.0),
