@@ -588,3 +588,46 @@ def test_the_subjects_model_is_searched_for_as_the_default_fit_does_whichever_pr
         fits.append(seen.value.args)
     assert fits[0] == fits[1]
     assert fits[0][1].iterations == TrackerOptions().fit.iterations != TrackerOptions.preset("live").fit.iterations
+
+
+def _faces_as(names, joints, truth_names, truth) -> bool:
+    """Whether the left hip lies to the same side of the right as the truth's (seen from above)."""
+    ours = joints[names.index("l_hip")] - joints[names.index("r_hip")]
+    theirs = truth[truth_names.index("l_hip")] - truth[truth_names.index("r_hip")]
+    return float(np.dot(ours[:2], theirs[:2])) > 0
+
+
+def test_with_nothing_to_say_which_way_the_person_faces_the_first_seconds_decide(sequence):
+    """Knees and elbows bend one way only: placed facing backwards, with no key points to
+    say otherwise, the subject's model is turned round, since that explains its first
+    seconds better; placed the right way, it stays."""
+    from hullcap._evaluate import read_truth_joints
+    from hullcap._subject import build_subject
+
+    # the first second: standing, then the arms lowered and an elbow bent
+    options = TrackerOptions(ignore_silhouettes=True, segmenter="colour", calibration_seconds=1.0)
+    tracker = Tracker(sequence, options=options)
+    tracker.segmenter.prepare()
+    builder, n = tracker.subject, len(Sequence(sequence))
+    end = builder.window_end(0, n)
+    truth_names, truth = read_truth_joints(sequence)
+
+    def faces_right(subject) -> bool:
+        joints = subject.model.joints(subject.pose.theta, subject.pose.root_rotation, subject.pose.root_translation)
+        return _faces_as(list(subject.model.joint_names), joints, truth_names, truth[0])
+
+    hull, _ = tracker.carver.carve(0)
+    right = build_subject(hull, options=options.subject)
+    assert faces_right(right)
+    kept, _ = builder._heading(right, builder._track_window(right, 0, end, n, False), 0, end, n, False)
+    assert kept is right and not builder.problems.items
+
+    backwards_start = PoseParameters(right.pose.theta, np.diag([-1.0, -1.0, 1.0]) @ right.pose.root_rotation,
+                                     right.pose.root_translation)
+    backwards = build_subject(tracker.carver.carve(0, (right.model, backwards_start))[0], poses=[backwards_start],
+                              options=options.subject)
+    assert not faces_right(backwards)
+    turned, window = builder._heading(backwards, builder._track_window(backwards, 0, end, n, False), 0, end, n, False)
+    assert faces_right(turned)
+    assert "turned round" in builder.problems.items[-1].what
+    assert np.mean(window.quality[:end]) > 0.7

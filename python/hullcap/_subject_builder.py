@@ -1,6 +1,7 @@
 """The subject's model for a tracking run (docs/design.md §2, §8): built at the first frame
 whose hull it explains (the calibration pose), or a given model placed there, and then
-refined from the first seconds of motion, where the joints bend."""
+refined from the first seconds of motion, where the joints bend. With nothing to say which
+way the person faces, those seconds also decide it."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import numpy as np
 
 from hullcap._body import BodyModel
 from hullcap._carver import Carver
-from hullcap._fitting import FitResult, PoseParameters, fit, make_target
+from hullcap._fitting import FitResult, PoseParameters, fit, make_target, yaw_rotation
 from hullcap._frame_fitter import FrameFitter
 from hullcap._problems import ProblemLog
 from hullcap._progress import progress
@@ -89,21 +90,25 @@ class SubjectBuilder:
                 continue
             if not options.refine_joints:
                 return subject.model, frame, subject.fit
-            return self.refine(subject, frame, n, show_progress)
+            return self.refine(subject, frame, n, show_progress, heading_known=facing is not None)
         last = f"; the last problem: {self.problems.items[-1]}" if len(self.problems) else ""
         raise TrackingError(f"{self.sequence.path}: no frame of the first {n} shows a body the model can start "
                             f"from{last}")
 
-    def refine(self, subject: SubjectFit, first: int, n: int,
-               show_progress: bool) -> tuple[BodyModel, int, FitResult]:
-        """Track the first seconds with `subject`, fit its proportions and joint centres
-        over frames of them, place the hinges' centres from the frames where they bend
-        most (:func:`hullcap._subject.search_centres`), give it the subject's own surface
-        (:func:`hullcap._subject.fitted_surface`), and return the refined model with its
-        fit at `first`."""
-        window = self._track_window(subject, first, self.window_end(first, n), n, show_progress)
+    def refine(self, subject: SubjectFit, first: int, n: int, show_progress: bool,
+               heading_known: bool = True) -> tuple[BodyModel, int, FitResult]:
+        """Track the first seconds with `subject` (or, unless `heading_known`, with it
+        turned round if that explains them better: :meth:`_heading`), fit its proportions
+        and joint centres over frames of them, place the hinges' centres from the frames
+        where they bend most (:func:`hullcap._subject.search_centres`), give it the
+        subject's own surface (:func:`hullcap._subject.fitted_surface`), and return the
+        refined model with its fit at `first`."""
+        end = self.window_end(first, n)
+        window = self._track_window(subject, first, end, n, show_progress)
+        if not heading_known:
+            subject, window = self._heading(subject, window, first, end, n, show_progress)
         stands = window.quality >= self.options.min_quality
-        good = [f for f in range(first, self.window_end(first, n)) if not window.failed[f] and stands[f]]
+        good = [f for f in range(first, end) if not window.failed[f] and stands[f]]
         if len(good) < 2:
             return subject.model, first, subject.fit
 
@@ -133,8 +138,40 @@ class SubjectBuilder:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, o.fit)
 
+    def _heading(self, subject: SubjectFit, window: TrackingResult, first: int, end: int, n: int,
+                 show_progress: bool) -> tuple[SubjectFit, TrackingResult]:
+        """``(subject, window)``, or the subject turned round with the first seconds tracked
+        from that, whichever explains those seconds better (the mean quality of frames
+        `first` … `end` − 1). A hull shows front and back alike, but knees and elbows bend
+        one way only: a model facing backwards, which the first frame alone may not tell
+        (the hull of a standing person), cannot follow them and explains a moving person
+        worse. Asked only when nothing else said which way the person faces (the learned
+        segmenter's key points)."""
+        pose = subject.pose
+        turned_start = PoseParameters(pose.theta, yaw_rotation(np.pi) @ np.asarray(pose.root_rotation, float),
+                                      pose.root_translation)
+        try:
+            self.segmenter.learn_colours(first, subject.model, turned_start, fresh=True)
+            hull, _ = self.carver.carve(first, (subject.model, turned_start))
+            turned = build_subject(hull, poses=[turned_start], options=self.options.subject)
+        except ValueError as e:
+            self.problems.add(first, f"the subject's model turned round could not be built to compare "
+                                     f"headings ({e}); it faces as first placed")
+            self.segmenter.learn_colours(first, subject.model, subject.pose, fresh=True)
+            return subject, window
+        self.segmenter.learn_colours(first, turned.model, turned.pose, fresh=True)
+        other = self._track_window(turned, first, end, n, show_progress, "subject model, turned round")
+        kept, turned_round = np.mean(window.quality[first:end]), np.mean(other.quality[first:end])
+        if turned_round > kept:
+            self.problems.add(first, f"the subject's model turned round: facing the other way it explains the "
+                                     f"first {end - first} frames better (mean quality {turned_round:.3f} "
+                                     f"against {kept:.3f} as first placed)")
+            return turned, other
+        self.segmenter.learn_colours(first, subject.model, subject.pose, fresh=True)
+        return subject, window
+
     def _track_window(self, subject: SubjectFit, first: int, last: int, n: int,
-                      show_progress: bool) -> TrackingResult:
+                      show_progress: bool, desc: str = "subject model") -> TrackingResult:
         """Frames `first` … `last` − 1 tracked with the model as first built, to build the
         refined one from.
 
@@ -153,6 +190,6 @@ class SubjectBuilder:
         search_fit = frame_fit_options(over_relaxation=options.calibration_fit.over_relaxation)
         state = TrackingState(subject.model, strict, subject.fit, search_fit=search_fit)
         window = TrackingResult.empty(subject.model, n, self.sequence.fps)
-        for frame in progress(range(first, last), total=last - first, desc="subject model", enable=show_progress):
+        for frame in progress(range(first, last), total=last - first, desc=desc, enable=show_progress):
             self.fitter.track(state, window, frame)
         return window
