@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from hullcap._body import BodyModel
 from hullcap._cameras import ring
-from hullcap._confidence import (CONVENTION, FAR, KEY_POINTS_OF, MIN_VIEWS, NEAR, UNSURE_BELOW, confidence,
-                                 key_point_offsets)
+from hullcap._confidence import (CONVENTION, FAR, KEY_POINTS_OF, MIN_VIEWS, NEAR, UNEXPLAINED_ABOVE,
+                                 UNEXPLAINED_BAND, UNSURE_BELOW, confidence, key_point_offsets, unexplained_share)
 from hullcap._person import KEY_POINTS, PersonView
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, UNCERTAIN, TrackingResult
 from hullcap.errors import ResultsError
@@ -148,14 +148,54 @@ def test_judge_marks_the_unsupported_joints_and_their_frames_uncertain_and_keeps
     assert np.isnan(filled.confidence[4]).all()
 
 
+def test_the_unexplained_share_counts_the_foreground_beyond_the_band_round_the_fitted_silhouette():
+    """Against pixels counted one by one: a fitted silhouette 100 px tall, a mask that
+    holds it grown by less than the band, and a blob far from it."""
+    silhouette = np.zeros((200, 200), bool)
+    silhouette[50:150, 80:120] = True
+    band = UNEXPLAINED_BAND * 100
+    mask = np.zeros((200, 200), np.uint8)
+    grow = 3  # even at its corners (4.2 px) within the band (5 px)
+    assert np.hypot(grow, grow) < band
+    mask[50 - grow:150 + grow, 80 - grow:120 + grow] = 255
+    assert unexplained_share([mask], [silhouette]) == 0.0
+    mask[0:20, 0:20] = 255  # an arm where the model has none
+    ys, xs = np.nonzero(mask)
+    inside = (ys >= 50) & (ys < 150) & (xs >= 80) & (xs < 120)
+    beyond = [np.hypot(max(0, 80 - x, x - 119), max(0, 50 - y, y - 149)) > band
+              for y, x in zip(ys[~inside], xs[~inside])]
+    assert sum(beyond) == 400
+    assert unexplained_share([mask], [silhouette]) == pytest.approx(400 / len(ys))
+    # the median over the views; a view without foreground or silhouette does not count
+    explained = mask.copy()
+    explained[0:20, 0:20] = 0
+    views = [mask, explained, explained, np.zeros_like(mask), mask]
+    sils = [silhouette, silhouette, silhouette, silhouette, np.zeros_like(silhouette)]
+    assert unexplained_share(views, sils) == 0.0
+    assert np.isnan(unexplained_share([np.zeros_like(mask)], [silhouette]))
+
+
+def test_a_frame_that_leaves_the_colour_foreground_unexplained_is_uncertain_every_joint():
+    result = _result()
+    result.unexplained[:] = [0.0, UNEXPLAINED_ABOVE / 2, 2 * UNEXPLAINED_ABOVE, 2 * UNEXPLAINED_ABOVE, np.nan, 0.0]
+    result.status[3] = result.joint_status[3] = RECOVERED
+    result.fail(5)
+    result.judge()
+    assert list(result.status) == [GOOD, GOOD, UNCERTAIN, UNCERTAIN, GOOD, FAILED]
+    assert (result.joint_status[2] == UNCERTAIN).all() and (result.joint_status[1] == GOOD).all()
+    assert np.isnan(result.unexplained[5])  # a failed frame measures nothing
+
+
 def test_status_and_confidence_round_trip_through_pose_npz_and_reach_joints_csv(tmp_path):
     result = _result()
     result.key_point_offset[1, NAMES.index("l_knee")] = 0.5
+    result.unexplained[:3] = [0.0, 0.01, 0.015]  # under the bar: the frames stay as judged
     result.judge()
     result.model.save(tmp_path / "model")
     write_outputs(tmp_path, result)
     again = load_result(tmp_path)
     assert np.array_equal(again.status, result.status) and np.array_equal(again.joint_status, result.joint_status)
+    assert np.array_equal(again.unexplained, result.unexplained, equal_nan=True)
     assert np.array_equal(again.confidence, result.confidence, equal_nan=True)
     with np.load(tmp_path / "pose.npz") as z:
         arrays = {k: z[k] for k in z.files}

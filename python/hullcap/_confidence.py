@@ -15,6 +15,12 @@ offset over the take, up to :data:`CONVENTION`, is forgiven as such a difference
 without a key point of their own (waist, chest, clavicles) take the confidence of the
 joints that place them. Without the learned segmenter a joint is not judged: its
 confidence is NaN.
+
+Without key points a frame is still held against the background test, which the prediction
+did not shape either: where, in most views, the test's foreground lies well beyond the
+fitted model's silhouette (:func:`unexplained_share`), the model does not explain what the
+cameras see (a model built without a torso the colour of the floor, knees placed far down
+the legs), and the frame is ``uncertain``.
 """
 
 from __future__ import annotations
@@ -22,8 +28,10 @@ from __future__ import annotations
 import numpy as np
 
 from hullcap._person import MIN_VISIBILITY
+from hullcap._guided import dilated
 
-__all__ = ["CONVENTION", "FAR", "NEAR", "UNSURE_BELOW", "confidence", "key_point_offsets"]
+__all__ = ["CONVENTION", "FAR", "NEAR", "UNEXPLAINED_ABOVE", "UNEXPLAINED_BAND", "UNSURE_BELOW", "confidence",
+           "key_point_offsets", "unexplained_share"]
 
 KEY_POINTS_OF = {
     "pelvis": (23, 24), "neck": (11, 12), "head": (7, 8),
@@ -47,6 +55,15 @@ CONVENTION = 0.08
 centre and its key point's (metres)."""
 UNSURE_BELOW = 0.5
 """A joint whose confidence is below this is ``uncertain``, and so is its frame."""
+UNEXPLAINED_BAND = 0.05
+"""A view's foreground pixel farther than this share of the person's height in the image
+from the fitted model's silhouette is one the fit leaves unexplained (the outline of a
+good fit lies within a few pixels of the mask's)."""
+UNEXPLAINED_ABOVE = 0.02
+"""A frame whose views leave more than this share of their background test's foreground
+unexplained (the median over the views) is ``uncertain``: good fits leave at most 0.8 % on
+the development set from colour alone (docs/notebooks/accuracy.md, "What the fit leaves
+unexplained")."""
 
 
 def key_point_offsets(views, cameras, joint_names, joints: np.ndarray) -> np.ndarray:
@@ -101,3 +118,18 @@ def confidence(joint_names, offsets: np.ndarray, kept: np.ndarray) -> np.ndarray
                 out[:, names.index(joint)] = np.min(out[:, [names.index(b) for b in by]], axis=1)
     out[~kept] = np.nan
     return out
+
+
+def unexplained_share(masks, silhouettes) -> float:
+    """The median over the views of the share of each view's foreground (`masks`, (H, W),
+    > 0 where the background test sees the person) outside the fitted model's silhouette
+    in that view (`silhouettes`, (H, W) bool) grown by :data:`UNEXPLAINED_BAND` of its
+    image height (:func:`hullcap._guided.dilated`); NaN where no view has both."""
+    shares = []
+    for mask, silhouette in zip(masks, silhouettes):
+        seen = np.asarray(mask) > 0
+        if not seen.any() or not silhouette.any():
+            continue
+        far = seen & ~dilated(silhouette, UNEXPLAINED_BAND)
+        shares.append(np.count_nonzero(far) / np.count_nonzero(seen))
+    return float(np.median(shares)) if shares else float("nan")

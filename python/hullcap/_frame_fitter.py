@@ -142,6 +142,7 @@ class FrameFitter:
         result.record(frame, best, status, iterations, bar)
         if status != FAILED:
             state.remember_fit(best)
+            result.unexplained[frame] = self.segmenter.unexplained(frame, result.model, best.pose)
             if self.segmenter.people[0] == frame:
                 # each view's latest key points (a few frames old where the learned segmenter
                 # runs every few frames) against the joints of the frame they were seen in

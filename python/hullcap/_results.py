@@ -19,7 +19,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from hullcap._body import BodyModel
-from hullcap._confidence import UNSURE_BELOW, confidence
+from hullcap._confidence import UNEXPLAINED_ABOVE, UNSURE_BELOW, confidence
 from hullcap._fitting import FitResult, PoseParameters
 from hullcap.errors import OptionsError, ResultsError
 
@@ -62,6 +62,10 @@ class TrackingResult:
             measured.
         joint_status: (F, J) uint8, each joint's status (:data:`STATUS_NAMES`): its frame's,
             or ``uncertain`` where :meth:`judge` found its confidence too low.
+        unexplained: (F,) the share of the background test's foreground the fit leaves
+            unexplained, the median over the views
+            (:func:`hullcap._confidence.unexplained_share`); NaN where not measured (the
+            learned segmenter's key points judge the joints instead, or the masks were given).
         seconds: seconds spent per stage of tracking the sequence (silhouettes, hull, fit), and
             on the subject's model (its frames and calibration pass included: "subject").
         subject_frame: the frame the subject's model was built from (or a given model
@@ -86,6 +90,7 @@ class TrackingResult:
     bar: np.ndarray
     key_point_offset: np.ndarray
     joint_status: np.ndarray
+    unexplained: np.ndarray
     seconds: dict = field(default_factory=dict)
     subject_frame: int = -1
 
@@ -104,10 +109,12 @@ class TrackingResult:
     def judge(self) -> None:
         """Each joint of a good or recovered frame whose :attr:`confidence` is below
         :data:`~hullcap._confidence.UNSURE_BELOW` becomes ``uncertain`` in
-        :attr:`joint_status`, and its frame in :attr:`status`; the others keep their
+        :attr:`joint_status`, and its frame in :attr:`status`; every joint of a frame
+        that leaves more than :data:`~hullcap._confidence.UNEXPLAINED_ABOVE` of the
+        background test's foreground :attr:`unexplained` too; the others keep their
         frame's status. Done once the run is over (the steady offsets are the take's); a
         second time changes nothing."""
-        unsure = self.confidence < UNSURE_BELOW
+        unsure = (self.confidence < UNSURE_BELOW) | (self.unexplained > UNEXPLAINED_ABOVE)[:, None]
         claimed = np.isin(self.status, (GOOD, RECOVERED))
         self.joint_status[claimed] = self.status[claimed, None]
         self.joint_status[claimed[:, None] & unsure] = UNCERTAIN
@@ -157,7 +164,7 @@ class TrackingResult:
         return cls(model, fps, nan(model.n_dofs), nan(3, 3), nan(3), nan(joints, 3),
                    np.full(n, FAILED, np.uint8), *(nan() for _ in STATS), np.zeros(n, np.int64),
                    np.zeros((n, len(model.link_model.names), 4), np.int64), nan(), nan(joints),
-                   np.full((n, joints), FAILED, np.uint8))
+                   np.full((n, joints), FAILED, np.uint8), nan())
 
     @classmethod
     def from_arrays(cls, model: BodyModel, a) -> TrackingResult:
@@ -190,6 +197,7 @@ class TrackingResult:
                      array("bar", (), "fiu", np.full(n, np.nan)).astype(float),
                      array("key_point_offset", (joints,), "fiu", np.full((n, joints), np.nan)).astype(float),
                      joint_status.astype(np.uint8),
+                     array("unexplained", (), "fiu", np.full(n, np.nan)).astype(float),
                      subject_frame=int(_checked_array(a, "subject_frame", (), "iu")) if "subject_frame" in a else -1)
         if not -1 <= result.subject_frame < n:
             raise ResultsError(f"subject_frame must be a frame of the run (0–{n - 1}) or -1, "
@@ -215,7 +223,7 @@ class TrackingResult:
             p.theta, p.root_rotation, p.root_translation
         self.joints[frame] = self.model.joints(p.theta, p.root_rotation, p.root_translation)
         self.status[frame] = self.joint_status[frame] = status
-        self.key_point_offset[frame] = np.nan  # measured by the tracker where it can
+        self.key_point_offset[frame] = self.unexplained[frame] = np.nan  # measured by the tracker where it can
         for k in STATS:
             getattr(self, k)[frame] = getattr(result, k)
         self.link_counts[frame] = result.link_counts
@@ -227,7 +235,8 @@ class TrackingResult:
     def fail(self, frame: int) -> None:
         """Mark a frame failed and forget its pose."""
         self.status[frame] = self.joint_status[frame] = FAILED
-        for a in (self.theta, self.root_rotation, self.root_translation, self.joints, self.key_point_offset):
+        for a in (self.theta, self.root_rotation, self.root_translation, self.joints, self.key_point_offset,
+                  self.unexplained):
             a[frame] = np.nan
 
     def arrays(self) -> dict:
@@ -237,7 +246,7 @@ class TrackingResult:
                "status": self.status, "iterations": self.iterations, "link_counts": self.link_counts,
                "bar": self.bar, "joints": self.joints, "fps": self.fps, "subject_frame": self.subject_frame,
                "key_point_offset": self.key_point_offset, "joint_status": self.joint_status,
-               "confidence": self.confidence}
+               "confidence": self.confidence, "unexplained": self.unexplained}
         return out | {k: getattr(self, k) for k in STATS}
 
     def interpolated(self) -> TrackingResult:

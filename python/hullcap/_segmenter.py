@@ -19,16 +19,18 @@ from collections import defaultdict
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from hullcap._body import BodyModel
+from hullcap._confidence import unexplained_share
 from hullcap._fitting import PoseParameters
 from hullcap._guided import GuidedSegmenter
 from hullcap._person import KEY_POINTS, PersonSegmenter, PersonView, facing_agreement, missing
 from hullcap._problems import ProblemLog
 from hullcap._render import model_silhouettes
 from hullcap._sequence import Sequence
-from hullcap._silhouette import background_model
+from hullcap._silhouette import background_model, clean_mask
 from hullcap._threads import ReadAhead, over_views
 from hullcap._tracking_options import TrackerOptions
 from hullcap.errors import OptionsError, SequenceError, ViewError
@@ -87,6 +89,9 @@ class Segmenter:
         # teaching reads instead of decoding them again: a video camera's reader is the
         # read-ahead thread's meanwhile.
         self._segmented: tuple[int, list] = (-1, [])
+        # The last frame segmented and each view's input (a ViewError for one left out),
+        # from which the background test's own masks are drawn when the fit is judged.
+        self._inputs_seen: tuple[int, list] = (-1, [])
         # Each frame's crops the learned segmenters follow once it is read (written on the
         # read-ahead thread), and those of the last frame segmented, which the checkpoint keeps.
         self._crops_after: dict[int, list] = {}
@@ -133,6 +138,7 @@ class Segmenter:
 
         to_segment = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and view.mask is None]
         self._segmented = (frame, [inputs[i].image if i in to_segment else None for i in range(len(inputs))])
+        self._inputs_seen = (frame, inputs)
         self.people = (frame, [view.person if isinstance(view, _Input) else None for view in inputs])
         self._remember_people(frame, self.people[1])
         self._crops = self._crops_after.pop(frame, self._crops)
@@ -233,6 +239,27 @@ class Segmenter:
             joints = model.joints(pose.theta, pose.root_rotation, pose.root_translation)
             return facing_agreement(views, cameras, dict(zip(model.joint_names, joints)))
         return facing
+
+    def unexplained(self, frame: int, model: BodyModel, pose: PoseParameters) -> float:
+        """The share of the background test's foreground that `model` at `pose`, fitted to
+        `frame` (the frame last segmented), leaves unexplained
+        (:func:`hullcap._confidence.unexplained_share`): evidence the prediction did not
+        shape. NaN where the learned segmenter runs (its key points judge the joints),
+        where the masks are the sequence's own, or where no view has a background image."""
+        seen, inputs = self._inputs_seen
+        if seen != frame or self.learned or self.given or self._backgrounds is None:
+            return float("nan")
+        views = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and self._backgrounds[i] is not None]
+        if not views:
+            return float("nan")
+
+        def mask(i: int) -> np.ndarray:  # the test's decision, cleaned (its outline's pixels matter not here)
+            view, background = inputs[i], self._backgrounds[i]
+            if view.evidence is None:
+                return view.mask
+            return clean_mask(cv2.compare(view.evidence, 0.0, cv2.CMP_GT), background.min_blob, background.max_hole)
+        cameras = self.sequence.cameras
+        return unexplained_share(over_views(mask, views), model_silhouettes([cameras[i] for i in views], model, pose))
 
     def learned_runs(self, frame: int, i: int) -> bool:
         """Whether the learned segmenter runs on view `i` at `frame`: on every frame while

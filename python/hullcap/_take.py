@@ -198,10 +198,14 @@ def _judged_line(result) -> str:
     that no joint could be judged."""
     from hullcap._results import UNCERTAIN
 
+    frames = int((result.status == UNCERTAIN).sum())
     if not np.isfinite(result.confidence).any():
+        if np.isfinite(result.unexplained).any():
+            return (f"{frames} frames uncertain, the fit leaving the background test's foreground unexplained in "
+                    "most views; joints not judged one by one: no key points of the person (the learned segmenter "
+                    "did not run) (docs/accuracy.md, 'How sure a joint is')")
         return ("joints not judged: no key points of the person (the learned segmenter did not run), so 'good' "
                 "says only that the fit explains the hull (docs/accuracy.md, 'How sure a joint is')")
-    frames = int((result.status == UNCERTAIN).sum())
     joints = np.flatnonzero((result.joint_status == UNCERTAIN).any(axis=0))
     which = f": {', '.join(result.model.joint_names[j] for j in joints)}" if frames else ""
     return (f"{frames} frames uncertain, a joint the person's key points do not support{which} "
