@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hullcap._person import MIN_VISIBILITY
 from hullcap._guided import dilated
+from hullcap._person import MIN_VISIBILITY
 
 __all__ = ["CONVENTION", "FAR", "NEAR", "UNEXPLAINED_ABOVE", "UNEXPLAINED_BAND", "UNSURE_BELOW", "confidence",
            "key_point_offsets", "unexplained_share"]
