@@ -245,9 +245,10 @@ class Segmenter:
         `frame` (the frame last segmented), leaves unexplained
         (:func:`hullcap._confidence.unexplained_share`): evidence the prediction did not
         shape. NaN where the learned segmenter runs (its key points judge the joints),
-        where the masks are the sequence's own, or where no view has a background image."""
+        where the masks are the sequence's own, where no view has a background image, and
+        while the subject's model is built (those frames are tracked again after)."""
         seen, inputs = self._inputs_seen
-        if seen != frame or self.learned or self.given or self._backgrounds is None:
+        if seen != frame or self.learned or self.given or self._backgrounds is None or self._every_frame:
             return float("nan")
         views = [i for i, view in enumerate(inputs) if isinstance(view, _Input) and self._backgrounds[i] is not None]
         if not views:
