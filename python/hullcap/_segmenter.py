@@ -75,7 +75,7 @@ class Segmenter:
         self.learned = self._learned_wanted()
         """Whether the learned person segmenter runs (``TrackerOptions.segmenter``)."""
         self._people: list | None = None  # each camera's PersonSegmenter, once needed
-        self._every_frame = False  # while True, the learned segmenter runs on every frame
+        self._every_frame = False  # while True (the subject's model is built) the learned segmenter runs every frame
         # Cameras without a usable background image, left out of every frame: name → why.
         self.no_background: dict[str, ViewError] = {}
         self.broken: set = set()
