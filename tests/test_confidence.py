@@ -186,6 +186,19 @@ def test_a_frame_that_leaves_the_colour_foreground_unexplained_is_uncertain_ever
     assert np.isnan(result.unexplained[5])  # a failed frame measures nothing
 
 
+def test_the_end_of_a_run_says_how_its_frames_were_judged():
+    from hullcap._take import _judged_line
+
+    result = _result()
+    result.key_point_offset[:] = np.nan  # no key points: joints not judged
+    assert _judged_line(result).startswith("joints not judged")
+    result.unexplained[:] = [0.0, 0.5, 0.0, 0.0, 0.0, 0.0]
+    result.judge()
+    assert _judged_line(result).startswith("1 frames uncertain, the fit leaving the background test's foreground")
+    result.key_point_offset[:] = 0.03
+    assert "key points do not support" in _judged_line(result)
+
+
 def test_status_and_confidence_round_trip_through_pose_npz_and_reach_joints_csv(tmp_path):
     result = _result()
     result.key_point_offset[1, NAMES.index("l_knee")] = 0.5

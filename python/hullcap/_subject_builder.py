@@ -77,9 +77,7 @@ class SubjectBuilder:
                 # Silhouettes guided by the model just built see what the first ones missed
                 # (clothes the colour of the room): build it again from them, twice.
                 for _ in range(2 if self.segmenter.guides else 0):
-                    self.segmenter.learn_colours(frame, subject.model, subject.pose, fresh=True)
-                    guided, masks = self.carver.carve(frame, (subject.model, subject.pose))
-                    subject = build_subject(guided, poses=[subject.pose], options=options.subject)
+                    subject, masks = self._built_at(frame, subject.model, subject.pose)
             except ValueError as e:
                 self.problems.add(frame, str(e))
                 continue
@@ -138,6 +136,14 @@ class SubjectBuilder:
             return model, first, refined.fit
         return model, first, fit(model, make_target(hulls[0]), refined.pose, o.fit)
 
+    def _built_at(self, frame: int, model: BodyModel, pose: PoseParameters):
+        """``(subject, masks)``: the subject's model built again from `frame`'s hull, its
+        silhouettes guided by `model` at `pose` (colours learnt from it afresh), starting
+        from `pose`; ValueError where it cannot be."""
+        self.segmenter.learn_colours(frame, model, pose, fresh=True)
+        hull, masks = self.carver.carve(frame, (model, pose))
+        return build_subject(hull, poses=[pose], options=self.options.subject), masks
+
     def _heading(self, subject: SubjectFit, window: TrackingResult, first: int, end: int, n: int,
                  show_progress: bool) -> tuple[SubjectFit, TrackingResult]:
         """``(subject, window)``, or the subject turned round with the first seconds tracked
@@ -151,9 +157,7 @@ class SubjectBuilder:
         turned_start = PoseParameters(pose.theta, yaw_rotation(np.pi) @ np.asarray(pose.root_rotation, float),
                                       pose.root_translation)
         try:
-            self.segmenter.learn_colours(first, subject.model, turned_start, fresh=True)
-            hull, _ = self.carver.carve(first, (subject.model, turned_start))
-            turned = build_subject(hull, poses=[turned_start], options=self.options.subject)
+            turned, _ = self._built_at(first, subject.model, turned_start)
         except ValueError as e:
             self.problems.add(first, f"the subject's model turned round could not be built to compare "
                                      f"headings ({e}); it faces as first placed")

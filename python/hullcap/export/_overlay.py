@@ -191,9 +191,13 @@ def _plot_confidence(ax, t, result) -> None:
     ax.imshow(shown, aspect="auto", interpolation="nearest", cmap="RdYlGn", vmin=0.0, vmax=1.0,
               extent=(t[0] - step / 2, t[-1] + step / 2, len(result.model.joint_names) - 0.5, -0.5))
     ax.set_yticks(range(len(result.model.joint_names)), result.model.joint_names, fontsize=6)
-    judged = np.isfinite(confidence).any()
-    ax.set_title("each joint's confidence: its distance from the person's key points (red 0, green 1)"
-                 if judged else "joints not judged: no key points (the learned segmenter did not run)", fontsize=9)
+    if np.isfinite(confidence).any():
+        title = "each joint's confidence: its distance from the person's key points (red 0, green 1)"
+    else:
+        title = "joints not judged: no key points (the learned segmenter did not run)"
+        if np.isfinite(result.unexplained).any():
+            title += "; frames judged against the background test's masks"
+    ax.set_title(title, fontsize=9)
 
 
 def _plot_limits_held(ax, t, dof_names, at_limits, held) -> None:
