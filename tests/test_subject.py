@@ -115,6 +115,28 @@ def test_the_subject_model_recovers_proportions_from_exact_surfaces():
     assert subject.fit.coverage > 0.95 and subject.fit.inlier_fraction > 0.95
 
 
+def test_a_calibration_build_keeps_every_fit_within_the_calibration_limits():
+    """A hull of the calibration pose is fitted within ``calibration_limits``, the last fit
+    too, built afresh or again from a pose (as the guided rebuilds are): a limb the views
+    lose (a shin the colour of the floor) must not fold where nothing holds it. Given poses
+    of motion, the same hull is fitted as it is: there the knee bends."""
+    template = BodyModel.template()
+    names = template.dof_names
+    theta = np.zeros(len(names))
+    theta[[names.index(f"{side}_shoulder_abduction") for side in "lr"]] = -0.6
+    knee = names.index("l_knee_flexion")
+    theta[knee] = np.radians(60)
+    posed = template.pose(theta, yaw_rotation(0.3), np.array([0.1, 0.2, template.rest_root_height]))
+    hull = Surface(posed.vertices, template.faces, posed.normals)
+    most = np.radians(SubjectOptions().calibration_limits["knee_flexion"][1])
+    first = build_subject(hull)
+    again = build_subject(hull, poses=[first.pose], calibration=True)
+    for subject in (first, again):
+        assert subject.pose.theta[knee] == pytest.approx(most, abs=1e-6)
+        assert subject.poses[0].theta[knee] == pytest.approx(most, abs=1e-6)
+    assert build_subject(hull, poses=[first.pose]).pose.theta[knee] == pytest.approx(theta[knee], abs=0.02)
+
+
 def test_with_hands_pulls_each_hand_toward_its_wrist():
     """Each hand is pulled toward its wrist along the forearm to the reach asked of its
     length; nothing else moves, and the skin and the joints stay the template's."""

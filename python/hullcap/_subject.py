@@ -177,7 +177,8 @@ class SubjectFit:
 
 
 def build_subject(hulls, poses=None, template: BodyModel | None = None,
-                  options: SubjectOptions | None = None, facing=None) -> SubjectFit:
+                  options: SubjectOptions | None = None, facing=None,
+                  calibration: bool | None = None) -> SubjectFit:
     """Fit the template's proportions and poses to the hulls of calibration frames.
 
     Args:
@@ -185,11 +186,16 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
             pose and of the first motion; the first is where the model is placed).
         poses: a starting pose per hull (e.g. from tracking with an earlier model);
             default: the placement found in the first hull, for every hull, and every
-            hull is then taken to show the calibration pose (fitted within
-            ``options.calibration_limits``): frames of motion need their poses.
+            hull is then taken to show the calibration pose: frames of motion need their
+            poses.
         template: the body to start from (default: :meth:`BodyModel.template`).
         options: see :class:`SubjectOptions`.
         facing: with no poses, the way the person faces, as :func:`place_model` takes it.
+        calibration: whether the hulls show the calibration pose (default: when no poses
+            are given), so that every fit, the last one too, stays within
+            ``options.calibration_limits``: where a view loses a limb (a shin the colour
+            of the floor), nothing else keeps it straight, and a limb folded onto another
+            guides the silhouettes that follow to lose it again.
     """
     options = options or SubjectOptions()
     hulls = [hulls] if isinstance(hulls, Surface) else list(hulls)
@@ -210,8 +216,8 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
     shape0 = np.zeros(len(basis))
     shape0[0] = height / _height(template.vertices) - 1.0
     targets = [make_target(h) for h in hulls]
-    # With no poses given every hull shows the calibration pose: fit it within its limits.
-    fitted_body = template if poses is not None else _limited(template, options.calibration_limits)
+    calibration = poses is None if calibration is None else calibration
+    fitted_body = _limited(template, options.calibration_limits) if calibration else template
     if poses is None:
         start = place_model(fitted_body.shaped(basis, shape0), hulls[0], targets[0], options, facing)
         poses = [start.pose] * len(hulls)
@@ -228,7 +234,8 @@ def build_subject(hulls, poses=None, template: BodyModel | None = None,
         model = _hull_at_rest(shaped, fitted_poses[0], hulls[0])
     else:
         model = shaped.reskinned()
-    final = fit(model, targets[0], fitted_poses[0], options.fit)
+    fitted_model = _limited(model, options.calibration_limits) if calibration else model
+    final = fit(fitted_model, targets[0], fitted_poses[0], options.fit)
     return SubjectFit(model, final.pose, (final.pose, *fitted_poses[1:]), basis, np.asarray(found), final)
 
 

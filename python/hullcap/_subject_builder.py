@@ -142,7 +142,7 @@ class SubjectBuilder:
         from `pose`; ValueError where it cannot be."""
         self.segmenter.learn_colours(frame, model, pose, fresh=True)
         hull, masks = self.carver.carve(frame, (model, pose))
-        return build_subject(hull, poses=[pose], options=self.options.subject), masks
+        return build_subject(hull, poses=[pose], options=self.options.subject, calibration=True), masks
 
     def _heading(self, subject: SubjectFit, window: TrackingResult, first: int, end: int, n: int,
                  show_progress: bool) -> tuple[SubjectFit, TrackingResult]:
