@@ -62,8 +62,8 @@ class SubjectOptions:
         stature: the heights (metres) a hull of the calibration pose may have: a small child
             to a very tall adult.
         calibration_limits: joint limits (degrees, by DOF name; without ``l_``/``r_``: both
-            sides) while the model is placed in the first hull, which shows the calibration
-            pose.
+            sides) of every fit of the first hull, which shows the calibration pose (its
+            placement, shape fit and last refit, and the rebuilds from guided silhouettes).
         headings: placements tried in the first hull, evenly spaced about the vertical.
         keep: the best placements (by coverage and inliers after a quick fit) refined.
         iterations: most Levenberg–Marquardt iterations of the shape fit.
