@@ -6,10 +6,14 @@ import numpy as np
 import pytest
 from hullcap._body import BodyModel
 from hullcap._cameras import ring
+from hullcap import _segmenter as segmenter_module
 from hullcap._confidence import (CONVENTION, FAR, KEY_POINTS_OF, MIN_VIEWS, NEAR, UNEXPLAINED_ABOVE,
-                                 UNEXPLAINED_BAND, UNSURE_BELOW, confidence, key_point_offsets, unexplained_share)
+                                 UNEXPLAINED_BAND, UNEXPLAINED_SCALE, UNSURE_BELOW, confidence, key_point_offsets,
+                                 unexplained_share)
+from hullcap._fitting import PoseParameters
 from hullcap._person import KEY_POINTS, PersonView
 from hullcap._results import FAILED, GOOD, INTERPOLATED, RECOVERED, UNCERTAIN, TrackingResult
+from hullcap._tracking import Tracker, TrackerOptions
 from hullcap.errors import ResultsError
 from hullcap.export import load_result, write_joints_csv, write_outputs
 
@@ -242,3 +246,24 @@ def test_status_and_confidence_round_trip_through_pose_npz_and_reach_joints_csv(
     assert (old.joint_status == old.status[:, None]).all() and np.isnan(old.confidence).all()
     write_joints_csv(tmp_path / "old.csv", old)
     assert (tmp_path / "old.csv").read_text().splitlines()[1].endswith(",good,")  # not judged: no confidence
+
+
+def test_the_background_test_judges_a_fit_at_half_the_image_size_as_at_full(sequence, monkeypatch):
+    """The share of the background test's foreground a fit leaves unexplained, measured at
+    half the image size as tracking does, is the full size's within half a point: next to
+    nothing for the true body at its true pose, over the bar with it 30 cm aside."""
+    model = BodyModel.load(sequence / "truth" / "model")
+    truth = np.load(sequence / "truth" / "pose.npz")
+    segmenter = Tracker(sequence, options=TrackerOptions(ignore_silhouettes=True, segmenter="colour")).segmenter
+    segmenter.prepare()
+    frame = 35
+    segmenter.segment(frame)
+    pose = PoseParameters(truth["theta"][frame], truth["root_rotation"][frame], truth["root_translation"][frame])
+    aside = PoseParameters(pose.theta, pose.root_rotation, pose.root_translation + np.array([0.3, 0.0, 0.0]))
+    shares = {}
+    for scale in (1.0, UNEXPLAINED_SCALE):
+        monkeypatch.setattr(segmenter_module, "UNEXPLAINED_SCALE", scale)
+        shares[scale] = np.array([segmenter.unexplained(frame, model, p) for p in (pose, aside)])
+    full, half = shares[1.0], shares[UNEXPLAINED_SCALE]
+    assert UNEXPLAINED_SCALE < 1 and np.abs(half - full).max() < 0.005, shares
+    assert half[0] < UNEXPLAINED_ABOVE / 4 and half[1] > 2 * UNEXPLAINED_ABOVE, shares

@@ -30,8 +30,8 @@ import numpy as np
 from hullcap._guided import dilated
 from hullcap._person import MIN_VISIBILITY
 
-__all__ = ["CONVENTION", "FAR", "NEAR", "UNEXPLAINED_ABOVE", "UNEXPLAINED_BAND", "UNSURE_BELOW", "confidence",
-           "key_point_offsets", "unexplained_share"]
+__all__ = ["CONVENTION", "FAR", "NEAR", "UNEXPLAINED_ABOVE", "UNEXPLAINED_BAND", "UNEXPLAINED_SCALE", "UNSURE_BELOW",
+           "confidence", "key_point_offsets", "unexplained_share"]
 
 KEY_POINTS_OF = {
     "pelvis": (23, 24), "neck": (11, 12), "head": (7, 8),
@@ -59,6 +59,10 @@ UNEXPLAINED_BAND = 0.05
 """A view's foreground pixel farther than this share of the person's height in the image
 from the fitted model's silhouette is one the fit leaves unexplained (the outline of a
 good fit lies within a few pixels of the mask's)."""
+UNEXPLAINED_SCALE = 0.5
+"""The image scale the share is measured at: the band is 15 pixels of a person 300 pixels
+tall at full size, which half the size holds to a pixel, with a quarter of the pixels to
+draw the model into and grow its silhouette over."""
 UNEXPLAINED_ABOVE = 0.02
 """A frame whose views leave more than this share of their background test's foreground
 unexplained (the median over the views) is ``uncertain``: good fits leave at most 0.8 % on

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from hullcap._body import BodyModel
-from hullcap._confidence import unexplained_share
+from hullcap._confidence import UNEXPLAINED_SCALE, unexplained_share
 from hullcap._fitting import PoseParameters
 from hullcap._guided import GuidedSegmenter
 from hullcap._person import KEY_POINTS, PersonSegmenter, PersonView, facing_agreement, missing
@@ -244,7 +244,8 @@ class Segmenter:
         """The share of the background test's foreground that `model` at `pose`, fitted to
         `frame` (the frame last segmented), leaves unexplained
         (:func:`hullcap._confidence.unexplained_share`): evidence the prediction did not
-        shape. NaN where the learned segmenter runs (its key points judge the joints),
+        shape; measured at :data:`~hullcap._confidence.UNEXPLAINED_SCALE` of the image
+        size. NaN where the learned segmenter runs (its key points judge the joints),
         where the masks are the sequence's own, where no view has a background image, and
         while the subject's model is built (those frames are tracked again after)."""
         seen, inputs = self._inputs_seen
@@ -254,12 +255,13 @@ class Segmenter:
         if not views:
             return float("nan")
 
+        cameras = {i: self.sequence.cameras[i].scaled(UNEXPLAINED_SCALE) for i in views}
+
         def mask(i: int) -> np.ndarray:  # the test's decision, cleaned (its outline's pixels matter not here)
             view, background = inputs[i], self._backgrounds[i]
-            if view.evidence is None:
-                return view.mask
-            return clean_mask(cv2.compare(view.evidence, 0.0, cv2.CMP_GT), background.min_blob, background.max_hole)
-        cameras = self.sequence.cameras
+            decided = view.mask if view.evidence is None else clean_mask(
+                cv2.compare(view.evidence, 0.0, cv2.CMP_GT), background.min_blob, background.max_hole)
+            return cv2.resize(decided, (cameras[i].width, cameras[i].height), interpolation=cv2.INTER_AREA) > 127
         return unexplained_share(over_views(mask, views), model_silhouettes([cameras[i] for i in views], model, pose))
 
     def learned_runs(self, frame: int, i: int) -> bool:
